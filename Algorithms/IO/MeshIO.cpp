@@ -1,0 +1,985 @@
+// Tetrahedral mesh files: VTK XML (.vtu), legacy VTK (.vtk), Gmsh MSH 4.1 ASCII (.msh, write
+// only) and TetGen (.node/.ele). See MeshIO.h for the contracts.
+//
+// Vertex order conventions (all the same for 4-node tets, so no reordering is needed):
+//   TetFlow : signedTetVolume(p0, p1, p2, p3) > 0, i.e. p3 lies on the side of triangle (p0,p1,p2)
+//             that (p1-p0)x(p2-p0) points to.
+//   VTK     : VTK_TETRA, (0,1,2) is a base triangle whose right-hand normal points to vertex 3.
+//   Gmsh    : 4-node tetrahedron (type 4), reference nodes (0,0,0) (1,0,0) (0,1,0) (0,0,1).
+//   TetGen  : TetGen 1.5 keeps every tet (a,b,c,d) with Shewchuk's orient3d(a,b,c,d) < 0, i.e. d
+//             above the counter-clockwise triangle (a,b,c) -- the TetFlow orientation -- and
+//             writes .ele corners in that stored order. Evidence: tetgenmesh::reconstructmesh()
+//             (tetgen.cxx, 1.5) swaps the first two corners of any input tet with
+//             orient3d(...) > 0; and the Debian libtet 1.5 library, run on random points, emits
+//             only tets with positive TetFlow volume. So the mapping is the identity.
+// Every reader finally re-orients tets stored with negative volume by swapping their first two
+// corners (what TetGen's own reader does), so files from tools with the opposite habit still give
+// a valid TetMesh.
+#include "MeshIO.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <new>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkCellType.h>
+#include <vtkCellTypes.h>
+#include <vtkCommand.h>
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkErrorCode.h>
+#include <vtkExecutive.h>
+#include <vtkIdTypeArray.h>
+#include <vtkIntArray.h>
+#include <vtkLogger.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkSmartPointer.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkUnstructuredGridReader.h>
+#include <vtkUnstructuredGridWriter.h>
+#include <vtkXMLUnstructuredGridReader.h>
+#include <vtkXMLUnstructuredGridWriter.h>
+
+#include "../Core/Errors.h"
+#include "FileUtil.h"
+
+namespace fs = std::filesystem;
+
+namespace tetflow {
+
+namespace {
+
+constexpr const char* kSupported = ".vtu, .vtk, .msh, .node/.ele (TetGen)";
+constexpr const char* kMaterialArray = "material";
+
+// ------------------------------------------------------------------------------------------------
+// Small helpers
+// ------------------------------------------------------------------------------------------------
+
+// %.17g without locale influence: round-trips every double exactly.
+void appendDouble(std::string& out, double v) {
+  char buf[40];
+  auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 17);
+  out.append(buf, r.ptr);
+}
+
+void appendInt(std::string& out, int64_t v) {
+  char buf[24];
+  auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+
+// Buffered text output into an AtomicOutputFile stream.
+class TextSink {
+public:
+  explicit TextSink(std::ofstream& s) : s_(s) { buf_.reserve(1 << 20); }
+  ~TextSink() { flush(); }
+  TextSink& operator<<(std::string_view t) {
+    buf_.append(t);
+    maybeFlush();
+    return *this;
+  }
+  TextSink& operator<<(char c) {
+    buf_.push_back(c);
+    maybeFlush();
+    return *this;
+  }
+  TextSink& num(int64_t v) {
+    appendInt(buf_, v);
+    return *this;
+  }
+  TextSink& real(double v) {
+    appendDouble(buf_, v);
+    return *this;
+  }
+  void flush() {
+    if (!buf_.empty()) s_.write(buf_.data(), static_cast<std::streamsize>(buf_.size()));
+    buf_.clear();
+  }
+
+private:
+  void maybeFlush() {
+    if (buf_.size() > (1u << 20)) flush();
+  }
+  std::ofstream& s_;
+  std::string buf_;
+};
+
+void requireExistingFile(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(path + ": file not found");
+  if (fs::is_directory(path, ec)) throw InputError(path + ": is a folder, not a mesh file");
+}
+
+// Readers hand out positively oriented tets (see the file comment).
+void orientPositively(TetMesh& m) {
+  for (size_t t = 0; t < m.tets.size(); ++t)
+    if (m.tetVolume(t) < 0.0) std::swap(m.tets[t][0], m.tets[t][1]);
+}
+
+// ------------------------------------------------------------------------------------------------
+// VTK (.vtu and .vtk)
+// ------------------------------------------------------------------------------------------------
+
+// "vtkClassName (0x1234): text\n\n" -> "text"
+std::string cleanVtkMessage(std::string msg) {
+  const auto pos = msg.find("): ");
+  if (pos != std::string::npos && pos < 120) msg = msg.substr(pos + 3);
+  while (!msg.empty() && std::isspace(static_cast<unsigned char>(msg.back()))) msg.pop_back();
+  for (char& c : msg)
+    if (c == '\n') c = ' ';
+  return msg;
+}
+
+// Some VTK failures never reach an object observer: vtkDataReader reports a short binary or
+// ASCII data block only through vtkGenericWarningMacro ("Error reading binary data!") and then
+// returns the partial grid as a success; objects inside readers (decompressors, parsers) report
+// errors without observers. VTK routes all of these through vtkLogger, so a callback registered
+// once collects them for the thread that is currently inside one of our VTK calls (thread_local
+// sink; other threads' messages are ignored). Captured: errors, and warnings mentioning an error.
+thread_local std::vector<std::string>* t_vtkLogSink = nullptr;
+
+void vtkLogToSink(void* /*userData*/, const vtkLogger::Message& m) {
+  if (!t_vtkLogSink || !m.message) return;
+  std::string text = m.message;
+  if (m.verbosity <= vtkLogger::VERBOSITY_ERROR || text.find("rror") != std::string::npos)
+    t_vtkLogSink->push_back(cleanVtkMessage(text));
+}
+
+// While alive, VTK log errors of this thread are appended to `sink`. Scopes nest (LIFO).
+class VtkLogCapture {
+public:
+  explicit VtkLogCapture(std::vector<std::string>& sink) : previous_(t_vtkLogSink) {
+    static std::once_flag once;
+    std::call_once(once, [] {
+      vtkLogger::AddCallback("tetflow.MeshIO.capture", &vtkLogToSink, nullptr,
+                             vtkLogger::VERBOSITY_WARNING);
+    });
+    t_vtkLogSink = &sink;
+  }
+  ~VtkLogCapture() { t_vtkLogSink = previous_; }
+  VtkLogCapture(const VtkLogCapture&) = delete;
+  VtkLogCapture& operator=(const VtkLogCapture&) = delete;
+
+private:
+  std::vector<std::string>* previous_;
+};
+
+// Collects VTK error (and swallows warning) events so they become exceptions instead of console
+// output. Attached to the reader/writer, its executive and, for XML readers, the internal parser;
+// a VtkLogCapture on `errors` adds the messages that bypass observers.
+class VtkMessageCollector : public vtkCommand {
+public:
+  static VtkMessageCollector* New() { return new VtkMessageCollector; }
+  void Execute(vtkObject* /*caller*/, unsigned long event, void* callData) override {
+    std::string msg =
+        cleanVtkMessage(callData ? static_cast<const char*>(callData) : "unspecified VTK error");
+    if (event == vtkCommand::ErrorEvent) errors.push_back(msg);
+    else warnings.push_back(msg);
+  }
+  void watch(vtkObject* o) {
+    if (!o) return;
+    o->AddObserver(vtkCommand::ErrorEvent, this);
+    o->AddObserver(vtkCommand::WarningEvent, this);
+  }
+  std::string firstError() const { return errors.empty() ? std::string() : errors.front(); }
+
+  std::vector<std::string> errors;
+  std::vector<std::string> warnings;
+};
+
+std::string vtkFailureText(const VtkMessageCollector& c, unsigned long code) {
+  std::string text = c.firstError();
+  if (text.empty() && code != vtkErrorCode::NoError) {
+    // (vtkErrorCode::GetStringFromErrorCode lives in a VTK module we do not link.)
+    switch (code) {
+    case vtkErrorCode::FileNotFoundError: text = "file not found"; break;
+    case vtkErrorCode::CannotOpenFileError: text = "cannot open the file"; break;
+    case vtkErrorCode::UnrecognizedFileTypeError: text = "unrecognized file type"; break;
+    case vtkErrorCode::PrematureEndOfFileError: text = "premature end of file"; break;
+    case vtkErrorCode::FileFormatError: text = "file format error"; break;
+    case vtkErrorCode::NoFileNameError: text = "no file name"; break;
+    case vtkErrorCode::OutOfDiskSpaceError: text = "out of disk space"; break;
+    default: text = "VTK error code " + std::to_string(code); break;
+    }
+  }
+  if (text.empty()) text = "unknown VTK error";
+  return text;
+}
+
+std::string cellTypeName(int type) {
+  const char* n = vtkCellTypes::GetClassNameFromTypeId(type);
+  return n ? n : "unknown cell";
+}
+
+vtkSmartPointer<vtkUnstructuredGrid> meshToGrid(const TetMesh& m) {
+  auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
+
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToDouble();
+  pts->SetNumberOfPoints(static_cast<vtkIdType>(m.numPoints()));
+  for (size_t i = 0; i < m.numPoints(); ++i)
+    pts->SetPoint(static_cast<vtkIdType>(i), m.points[i].data());
+  grid->SetPoints(pts);
+
+  const vtkIdType nt = static_cast<vtkIdType>(m.numTets());
+  vtkNew<vtkIdTypeArray> offsets;
+  vtkNew<vtkIdTypeArray> conn;
+  offsets->SetNumberOfValues(nt + 1);
+  conn->SetNumberOfValues(4 * nt);
+  for (vtkIdType t = 0; t <= nt; ++t) offsets->SetValue(t, 4 * t);
+  for (vtkIdType t = 0; t < nt; ++t)
+    for (int k = 0; k < 4; ++k) conn->SetValue(4 * t + k, m.tets[static_cast<size_t>(t)][k]);
+  vtkNew<vtkCellArray> cells;
+  cells->SetData(offsets, conn);
+  grid->SetCells(VTK_TETRA, cells);
+
+  vtkNew<vtkIntArray> mat;
+  mat->SetName(kMaterialArray);
+  mat->SetNumberOfComponents(1);
+  mat->SetNumberOfTuples(nt);
+  for (vtkIdType t = 0; t < nt; ++t) mat->SetValue(t, m.materials[static_cast<size_t>(t)]);
+  grid->GetCellData()->AddArray(mat);
+
+  auto addFields = [](const std::map<std::string, Field>& fields, vtkDataSetAttributes* attr,
+                      vtkIdType n) {
+    for (const auto& [name, f] : fields) {
+      vtkNew<vtkDoubleArray> a;
+      a->SetName(name.c_str());
+      a->SetNumberOfComponents(f.components);
+      a->SetNumberOfTuples(n);
+      if (!f.values.empty())
+        std::memcpy(a->GetPointer(0), f.values.data(), f.values.size() * sizeof(double));
+      attr->AddArray(a);
+    }
+  };
+  addFields(m.pointFields, grid->GetPointData(), static_cast<vtkIdType>(m.numPoints()));
+  addFields(m.cellFields, grid->GetCellData(), nt);
+  return grid;
+}
+
+// Convert arrays of one attribute set (point or cell data) to fields; the cell array "material"
+// becomes the material labels when `materials` is given.
+void readArrays(vtkDataSetAttributes* attr, vtkIdType count, const char* kind,
+                std::map<std::string, Field>& fields, std::vector<int32_t>* materials,
+                const std::string& path) {
+  if (!attr) return;
+  for (int i = 0; i < attr->GetNumberOfArrays(); ++i) {
+    vtkDataArray* a = vtkDataArray::SafeDownCast(attr->GetAbstractArray(i));
+    if (!a) continue; // string / variant arrays carry no numbers: ignored
+    std::string name = a->GetName() ? a->GetName() : "";
+    if (name.empty()) name = std::string(kind) + "_array_" + std::to_string(i);
+    const int nc = a->GetNumberOfComponents();
+    if (a->GetNumberOfTuples() != count) {
+      std::ostringstream m;
+      m << path << ": " << kind << " data array '" << name << "' has " << a->GetNumberOfTuples()
+        << " tuples but the mesh has " << count << " " << kind << "s (damaged file?)";
+      throw InputError(m.str());
+    }
+    if (materials && name == kMaterialArray) {
+      if (nc != 1)
+        throw InputError(path + ": cell data array 'material' has " + std::to_string(nc) +
+                         " components; expected 1 (one integer label per tet)");
+      materials->resize(static_cast<size_t>(count));
+      for (vtkIdType t = 0; t < count; ++t) {
+        const double v = a->GetComponent(t, 0);
+        if (!(v == std::floor(v)) || v < std::numeric_limits<int32_t>::min() ||
+            v > std::numeric_limits<int32_t>::max()) {
+          std::ostringstream m;
+          m << path << ": cell " << t << " has material value " << v
+            << ", which is not a 32-bit integer label";
+          throw InputError(m.str());
+        }
+        (*materials)[static_cast<size_t>(t)] = static_cast<int32_t>(v);
+      }
+      continue;
+    }
+    if (fields.count(name)) continue; // duplicate name: the first array wins
+    Field f;
+    f.components = nc;
+    f.values.resize(static_cast<size_t>(count) * static_cast<size_t>(nc));
+    std::vector<double> tuple(static_cast<size_t>(nc));
+    for (vtkIdType t = 0; t < count; ++t) {
+      a->GetTuple(t, tuple.data());
+      std::copy(tuple.begin(), tuple.end(),
+                f.values.begin() + static_cast<std::ptrdiff_t>(t) * nc);
+    }
+    fields.emplace(name, std::move(f));
+  }
+}
+
+template <class IdArray>
+void readConnectivity(IdArray* offsets, IdArray* conn, vtkUnsignedCharArray* types,
+                      vtkIdType nCells, vtkIdType nPoints, TetMesh& m, const std::string& path) {
+  const vtkIdType connSize = conn ? conn->GetNumberOfValues() : 0;
+  if (!offsets || offsets->GetNumberOfValues() != nCells + 1 || offsets->GetValue(0) != 0 ||
+      offsets->GetValue(nCells) != connSize)
+    throw InputError(path + ": the cell connectivity is inconsistent (damaged file?)");
+  m.tets.resize(static_cast<size_t>(nCells));
+  for (vtkIdType c = 0; c < nCells; ++c) {
+    const int type = types->GetValue(c);
+    const auto b = offsets->GetValue(c), e = offsets->GetValue(c + 1);
+    if (type != VTK_TETRA) {
+      std::ostringstream msg;
+      msg << path << ": cell " << c << " is a " << cellTypeName(type) << " (VTK cell type " << type
+          << "); only tetrahedra (VTK_TETRA = " << VTK_TETRA << ") are supported";
+      throw InputError(msg.str());
+    }
+    if (e - b != 4 || b < 0 || e > connSize) {
+      std::ostringstream msg;
+      msg << path << ": tetrahedron cell " << c << " has " << (e - b) << " points instead of 4";
+      throw InputError(msg.str());
+    }
+    for (int k = 0; k < 4; ++k) {
+      const auto id = conn->GetValue(b + k);
+      if (id < 0 || id >= nPoints) {
+        std::ostringstream msg;
+        msg << path << ": cell " << c << " refers to point " << id << " but the file has "
+            << nPoints << " points";
+        throw InputError(msg.str());
+      }
+      m.tets[static_cast<size_t>(c)][k] = static_cast<int32_t>(id);
+    }
+  }
+}
+
+TetMesh gridToMesh(vtkUnstructuredGrid* g, const std::string& path) {
+  if (!g) throw InputError(path + ": VTK produced no data (damaged file?)");
+  TetMesh m;
+  const vtkIdType np = g->GetNumberOfPoints();
+  if (np > std::numeric_limits<int32_t>::max())
+    throw InputError(path + ": too many points (" + std::to_string(np) + ") for 32-bit indices");
+  m.points.resize(static_cast<size_t>(np));
+  vtkPoints* pts = g->GetPoints();
+  if (np > 0 && !pts) throw InputError(path + ": the file has no point coordinates");
+  for (vtkIdType i = 0; i < np; ++i) pts->GetPoint(i, m.points[static_cast<size_t>(i)].data());
+
+  vtkCellArray* cells = g->GetCells();
+  const vtkIdType nc = cells ? cells->GetNumberOfCells() : 0;
+  vtkUnsignedCharArray* types = g->GetCellTypesArray();
+  if (nc > 0 && (!types || types->GetNumberOfValues() != nc))
+    throw InputError(path + ": the number of cell types does not match the number of cells "
+                            "(damaged file?)");
+  if (nc > 0) {
+    if (cells->IsStorage64Bit())
+      readConnectivity(cells->GetOffsetsArray64(), cells->GetConnectivityArray64(), types, nc,
+                       np, m, path);
+    else
+      readConnectivity(cells->GetOffsetsArray32(), cells->GetConnectivityArray32(), types, nc,
+                       np, m, path);
+  }
+  m.materials.assign(static_cast<size_t>(nc), 0);
+  readArrays(g->GetPointData(), np, "point", m.pointFields, nullptr, path);
+  readArrays(g->GetCellData(), nc, "cell", m.cellFields, &m.materials, path);
+  m.validateStructure(path);
+  orientPositively(m);
+  return m;
+}
+
+void checkVtkWritable(const std::string& path, const TetMesh& m) {
+  auto check = [&](const std::map<std::string, Field>& fields, const char* kind) {
+    for (const auto& [name, f] : fields) {
+      (void)f;
+      if (name.empty())
+        throw InputError(path + ": a " + std::string(kind) +
+                         " field has an empty name; VTK files need array names");
+    }
+  };
+  check(m.pointFields, "point");
+  check(m.cellFields, "cell");
+  if (m.cellFields.count(kMaterialArray))
+    throw InputError(path + ": cell field name 'material' is reserved for the material labels; "
+                            "rename the field");
+}
+
+template <class Writer>
+void runVtkWriter(Writer* w, const std::string& path, vtkUnstructuredGrid* grid) {
+  AtomicOutputFile out(path);
+  out.closeStream();
+  vtkNew<VtkMessageCollector> msgs;
+  VtkLogCapture capture(msgs->errors);
+  msgs->watch(w);
+  msgs->watch(w->GetExecutive());
+  w->SetFileName(out.tempPath().c_str());
+  w->SetInputData(grid);
+  int ok = 0;
+  try {
+    ok = w->Write();
+  } catch (const std::bad_alloc&) {
+    throw InputError(path + ": out of memory while writing");
+  }
+  if (!ok || !msgs->errors.empty() || w->GetErrorCode() != vtkErrorCode::NoError)
+    throw InputError(path + ": cannot write: " + vtkFailureText(*msgs, w->GetErrorCode()) +
+                     "; nothing was written");
+  out.commit();
+}
+
+void writeVtu(const std::string& path, const TetMesh& m) {
+  checkVtkWritable(path, m);
+  auto grid = meshToGrid(m);
+  vtkNew<vtkXMLUnstructuredGridWriter> w;
+  w->SetDataModeToAppended();
+  w->EncodeAppendedDataOff(); // raw binary appended block
+  w->SetCompressorTypeToZLib();
+  w->SetHeaderTypeToUInt64();
+  runVtkWriter(w.Get(), path, grid);
+}
+
+void writeVtkLegacy(const std::string& path, const TetMesh& m) {
+  checkVtkWritable(path, m);
+  auto grid = meshToGrid(m);
+  vtkNew<vtkUnstructuredGridWriter> w;
+  w->SetFileTypeToBinary();
+  // 4.2 layout is read by every VTK version and by most other tools; 5.1 only by VTK >= 9.
+  w->SetFileVersion(vtkUnstructuredGridWriter::VTK_LEGACY_READER_VERSION_4_2);
+  runVtkWriter(w.Get(), path, grid);
+}
+
+template <class Reader>
+TetMesh runVtkReader(Reader* r, VtkMessageCollector* msgs, const std::string& path,
+                     const char* what) {
+  msgs->watch(r->GetExecutive());
+  r->SetFileName(path.c_str());
+  try {
+    r->Update();
+  } catch (const std::bad_alloc&) {
+    throw InputError(path + ": the file announces more data than can be allocated "
+                            "(damaged file?)");
+  }
+  if (!msgs->errors.empty() || r->GetErrorCode() != vtkErrorCode::NoError)
+    throw InputError(path + ": cannot read " + what + " (damaged or truncated file?): " +
+                     vtkFailureText(*msgs, r->GetErrorCode()));
+  return gridToMesh(r->GetOutput(), path);
+}
+
+TetMesh readVtu(const std::string& path) {
+  requireExistingFile(path);
+  vtkNew<vtkXMLUnstructuredGridReader> r;
+  vtkNew<VtkMessageCollector> msgs;
+  VtkLogCapture capture(msgs->errors);
+  msgs->watch(r);
+  r->SetReaderErrorObserver(msgs);
+  r->SetParserErrorObserver(msgs);
+  if (!r->CanReadFile(path.c_str()))
+    throw InputError(path + ": not a VTK XML UnstructuredGrid (.vtu) file, or its header is "
+                            "damaged");
+  return runVtkReader(r.Get(), msgs, path, "the VTK XML unstructured grid");
+}
+
+// vtkUnstructuredGridReader trusts "CELL_TYPES n" to match "CELLS": a smaller n makes it read
+// past its cell type buffer. Find both header lines (stopping once both are seen) and refuse a
+// mismatch before VTK reads the file. Keywords in another case are left to VTK.
+void checkLegacyCellCounts(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open for reading");
+  std::string head;
+  std::getline(in, head);
+  int major = 0;
+  const std::string tag = "Version ";
+  const auto vpos = head.find(tag);
+  if (vpos != std::string::npos) major = std::atoi(head.c_str() + vpos + tag.size());
+  in.seekg(0);
+  constexpr size_t kChunk = 1 << 22, kOverlap = 64;
+  std::string window;
+  std::vector<char> chunk(kChunk);
+  long long cells = -1, types = -1;
+  auto scan = [&](const char* key, long long& value, int fields) {
+    if (value >= 0) return;
+    const auto k = window.find(key);
+    if (k == std::string::npos) return;
+    const char* b = window.data() + k + std::strlen(key);
+    const char* e = window.data() + window.size();
+    long long v[2] = {-1, -1};
+    for (int f = 0; f < fields; ++f) {
+      while (b < e && *b == ' ') ++b;
+      auto r = std::from_chars(b, e, v[f]);
+      // A number running into the window end may be incomplete: look again next round.
+      if (r.ec != std::errc() || r.ptr == e) return;
+      b = r.ptr;
+    }
+    value = v[0];
+  };
+  while (in && (cells < 0 || types < 0)) {
+    in.read(chunk.data(), static_cast<std::streamsize>(kChunk));
+    const size_t got = static_cast<size_t>(in.gcount());
+    if (got == 0) break;
+    window.append(chunk.data(), got);
+    scan("\nCELLS ", cells, 2);
+    scan("\nCELL_TYPES ", types, 1);
+    if (window.size() > kOverlap) window.erase(0, window.size() - kOverlap);
+  }
+  if (cells < 0 || types < 0) return;
+  const long long nCells = major >= 5 ? cells - 1 : cells; // 5.x counts offsets (cells + 1)
+  if (nCells != types) {
+    std::ostringstream m;
+    m << path << ": CELLS announces " << nCells << " cells but CELL_TYPES " << types
+      << " types (damaged file?)";
+    throw InputError(m.str());
+  }
+}
+
+TetMesh readVtkLegacy(const std::string& path) {
+  requireExistingFile(path);
+  checkLegacyCellCounts(path);
+  vtkNew<vtkUnstructuredGridReader> r;
+  vtkNew<VtkMessageCollector> msgs;
+  VtkLogCapture capture(msgs->errors);
+  msgs->watch(r);
+  r->ReadAllScalarsOn();
+  r->ReadAllVectorsOn();
+  r->ReadAllNormalsOn();
+  r->ReadAllTensorsOn();
+  r->ReadAllColorScalarsOn();
+  r->ReadAllTCoordsOn();
+  r->ReadAllFieldsOn();
+  r->SetFileName(path.c_str());
+  if (!r->IsFileUnstructuredGrid()) {
+    std::string why = msgs->firstError();
+    throw InputError(path + ": not a legacy VTK UNSTRUCTURED_GRID file" +
+                     (why.empty() ? std::string() : " (" + why + ")"));
+  }
+  return runVtkReader(r.Get(), msgs, path, "the legacy VTK unstructured grid");
+}
+
+// ------------------------------------------------------------------------------------------------
+// Gmsh MSH 4.1 ASCII (write only). Geometry and materials only: fields are not stored.
+// ------------------------------------------------------------------------------------------------
+
+void writeGmsh(const std::string& path, const TetMesh& m) {
+  struct Group {
+    int32_t label = 0;
+    int64_t physTag = 0;
+    int entityTag = 0;
+    std::vector<size_t> tets;
+    Vec3 lo{}, hi{};
+  };
+  std::map<int32_t, std::vector<size_t>> byLabel;
+  for (size_t t = 0; t < m.numTets(); ++t) byLabel[m.materials[t]].push_back(t);
+  int64_t maxLabel = 0;
+  for (const auto& [label, tets] : byLabel) maxLabel = std::max<int64_t>(maxLabel, label);
+  int64_t nextTag = maxLabel + 1;
+  std::vector<Group> groups;
+  for (auto& [label, tets] : byLabel) {
+    Group g;
+    g.label = label;
+    g.physTag = label >= 1 ? label : label; (void)nextTag;
+    if (g.physTag > std::numeric_limits<int32_t>::max())
+      throw InputError(path + ": cannot assign a Gmsh physical tag to material " +
+                       std::to_string(label) + " (labels too large)");
+    g.entityTag = static_cast<int>(groups.size()) + 1;
+    g.tets = std::move(tets);
+    g.lo = {std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
+            std::numeric_limits<double>::max()};
+    g.hi = {std::numeric_limits<double>::lowest(), std::numeric_limits<double>::lowest(),
+            std::numeric_limits<double>::lowest()};
+    for (size_t t : g.tets)
+      for (int32_t v : m.tets[t])
+        for (int a = 0; a < 3; ++a) {
+          g.lo[a] = std::min(g.lo[a], m.points[static_cast<size_t>(v)][a]);
+          g.hi[a] = std::max(g.hi[a], m.points[static_cast<size_t>(v)][a]);
+        }
+    groups.push_back(std::move(g));
+  }
+  const int64_t np = static_cast<int64_t>(m.numPoints());
+  const int64_t nt = static_cast<int64_t>(m.numTets());
+  // Nodes must sit on an entity: with points but no tets, add one volume without physical group.
+  const bool extraEntity = groups.empty() && np > 0;
+
+  AtomicOutputFile out(path);
+  {
+    TextSink s(out.stream());
+    s << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
+
+    // Like Gmsh itself, sections that would be empty are left out (no tets: no physical names;
+    // no points: no $Nodes and $Elements).
+    if (!groups.empty()) {
+      s << "$PhysicalNames\n";
+      s.num(static_cast<int64_t>(groups.size())) << '\n';
+      for (const Group& g : groups) {
+        s << "3 ";
+        s.num(g.physTag) << " \"material_";
+        s.num(g.label) << "\"\n";
+      }
+      s << "$EndPhysicalNames\n";
+    }
+
+    s << "$Entities\n0 0 0 ";
+    s.num(static_cast<int64_t>(groups.size() + (extraEntity ? 1 : 0))) << '\n';
+    auto box = [&](const Vec3& lo, const Vec3& hi) {
+      for (double v : lo) s.real(v) << ' ';
+      for (double v : hi) s.real(v) << ' ';
+    };
+    for (const Group& g : groups) {
+      s.num(g.entityTag) << ' ';
+      box(g.lo, g.hi);
+      s << "1 ";
+      s.num(g.physTag) << " 0\n"; // one physical tag, no bounding surfaces
+    }
+    if (extraEntity) {
+      Vec3 lo = m.points[0], hi = m.points[0];
+      for (const Vec3& p : m.points)
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], p[a]);
+          hi[a] = std::max(hi[a], p[a]);
+        }
+      s << "1 ";
+      box(lo, hi);
+      s << "0 0\n";
+    }
+    s << "$EndEntities\n";
+
+    // All nodes in one block on the first volume entity; node tag = index + 1.
+    if (np > 0) {
+      s << "$Nodes\n";
+      s << "1 ";
+      s.num(np) << " 1 ";
+      s.num(np) << "\n3 1 0 ";
+      s.num(np) << '\n';
+      for (int64_t i = 1; i <= np; ++i) s.num(i) << '\n';
+      for (const Vec3& p : m.points) {
+        s.real(p[0]) << ' ';
+        s.real(p[1]) << ' ';
+        s.real(p[2]) << '\n';
+      }
+      s << "$EndNodes\n";
+
+      // One block per material entity, element type 4 (4-node tet), tags 1..nt in block order.
+      s << "$Elements\n";
+      s.num(static_cast<int64_t>(groups.size())) << ' ';
+      s.num(nt) << ' ';
+      s.num(nt > 0 ? 1 : 0) << ' ';
+      s.num(nt) << '\n';
+      int64_t tag = 0;
+      for (const Group& g : groups) {
+        s << "3 ";
+        s.num(g.entityTag) << " 4 ";
+        s.num(static_cast<int64_t>(g.tets.size())) << '\n';
+        for (size_t t : g.tets) {
+          s.num(tag++);
+          TetMesh::Tet q = m.tets[t]; std::swap(q[0], q[1]);
+          for (int32_t v : q) {
+            s << ' ';
+            s.num(static_cast<int64_t>(v) + 1);
+          }
+          s << '\n';
+        }
+      }
+      s << "$EndElements\n";
+    }
+  }
+  out.commit();
+}
+
+// ------------------------------------------------------------------------------------------------
+// TetGen .node / .ele
+// ------------------------------------------------------------------------------------------------
+
+struct TetGenPaths {
+  std::string node, ele;
+};
+
+// "a/b.node", "a/b.ele" or "a/b" -> {"a/b.node", "a/b.ele"}; an upper-case suffix is kept.
+TetGenPaths tetgenPaths(const std::string& path) {
+  const std::string ext = fileExtension(path);
+  if (ext == ".node" || ext == ".ele") {
+    const std::string stem = path.substr(0, path.size() - ext.size());
+    const std::string given = path.substr(path.size() - ext.size());
+    const bool upper = given != ext;
+    TetGenPaths p{stem + (upper ? ".NODE" : ".node"), stem + (upper ? ".ELE" : ".ele")};
+    (ext == ".node" ? p.node : p.ele) = path;
+    return p;
+  }
+  return {path + ".node", path + ".ele"};
+}
+
+// Whitespace-separated tokens of the non-empty lines of a text file; '#' starts a comment.
+class TokenLines {
+public:
+  explicit TokenLines(const std::string& path) : path_(path), data_(readFileBytes(path)) {}
+
+  // Next line with at least one token; false at the end of the file.
+  bool next() {
+    tokens_.clear();
+    while (pos_ < data_.size()) {
+      size_t end = pos_;
+      while (end < data_.size() && data_[end] != '\n') ++end;
+      ++line_;
+      std::string_view l(data_.data() + pos_, end - pos_);
+      pos_ = end + 1;
+      const size_t hash = l.find('#');
+      if (hash != std::string_view::npos) l = l.substr(0, hash);
+      size_t i = 0;
+      while (i < l.size()) {
+        while (i < l.size() && isSpace(l[i])) ++i;
+        size_t j = i;
+        while (j < l.size() && !isSpace(l[j])) ++j;
+        if (j > i) tokens_.push_back(l.substr(i, j - i));
+        i = j;
+      }
+      if (!tokens_.empty()) return true;
+    }
+    return false;
+  }
+  size_t size() const { return tokens_.size(); }
+  size_t line() const { return line_; }
+  size_t bytes() const { return data_.size(); }
+  const std::string& path() const { return path_; }
+
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw InputError(path_ + ", line " + std::to_string(line_) + ": " + problem);
+  }
+
+  int64_t integer(size_t k, const char* what) const {
+    std::string_view t = token(k, what);
+    if (!t.empty() && t[0] == '+') t.remove_prefix(1);
+    int64_t v = 0;
+    auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (r.ec != std::errc() || r.ptr != t.data() + t.size())
+      fail(std::string("expected an integer ") + what + ", found '" + std::string(token(k, what)) +
+           "'");
+    return v;
+  }
+  double real(size_t k, const char* what) const {
+    std::string_view t = token(k, what);
+    if (!t.empty() && t[0] == '+') t.remove_prefix(1);
+    double v = 0;
+    auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (r.ec != std::errc() || r.ptr != t.data() + t.size() || !std::isfinite(v))
+      fail(std::string("expected a finite number ") + what + ", found '" +
+           std::string(token(k, what)) + "'");
+    return v;
+  }
+
+private:
+  static bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+  std::string_view token(size_t k, const char* what) const {
+    if (k >= tokens_.size()) fail(std::string("missing ") + what);
+    return tokens_[k];
+  }
+
+  std::string path_;
+  std::vector<char> data_;
+  size_t pos_ = 0;
+  size_t line_ = 0;
+  std::vector<std::string_view> tokens_;
+};
+
+// Bound reservations by the file size so a lying header cannot make us allocate wildly.
+size_t boundedReserve(int64_t announced, size_t fileBytes, size_t minBytesPerItem) {
+  return static_cast<size_t>(std::min<int64_t>(announced,
+                                               static_cast<int64_t>(fileBytes / minBytesPerItem)));
+}
+
+TetMesh readTetGen(const std::string& path) {
+  const TetGenPaths p = tetgenPaths(path);
+  requireExistingFile(p.node);
+  requireExistingFile(p.ele);
+  TetMesh m;
+
+  // .node: "<#points> <dim=3> <#attributes> <#markers 0|1>", then "<i> x y z [attr...] [marker]".
+  int64_t nodeBase = 0;
+  {
+    TokenLines in(p.node);
+    if (!in.next()) throw InputError(p.node + ": the file is empty (expected a TetGen .node header)");
+    const int64_t n = in.integer(0, "number of nodes");
+    if (n < 0) in.fail("negative number of nodes");
+    if (in.size() > 1 && in.integer(1, "dimension") != 3)
+      in.fail("dimension " + std::to_string(in.integer(1, "dimension")) +
+              "; only 3D meshes are supported");
+    if (n > std::numeric_limits<int32_t>::max()) in.fail("too many nodes for 32-bit indices");
+    m.points.reserve(boundedReserve(n, in.bytes(), 8));
+    for (int64_t i = 0; i < n; ++i) {
+      if (!in.next()) {
+        std::ostringstream msg;
+        msg << p.node << ": the file ends at line " << in.line() << " after " << i << " of the "
+            << n << " nodes announced in the header (truncated file?)";
+        throw InputError(msg.str());
+      }
+      const int64_t idx = in.integer(0, "node index");
+      if (i == 0) {
+        if (idx != 0 && idx != 1) in.fail("the first node index must be 0 or 1, found " +
+                                          std::to_string(idx));
+        nodeBase = idx;
+      } else if (idx != nodeBase + i) {
+        in.fail("node index " + std::to_string(idx) + " out of sequence (expected " +
+                std::to_string(nodeBase + i) + ")");
+      }
+      m.points.push_back({in.real(1, "x coordinate"), in.real(2, "y coordinate"),
+                          in.real(3, "z coordinate")});
+    }
+  }
+
+  // .ele: "<#tets> <nodes per tet 4|10> <#attributes>", then "<i> n1 n2 n3 n4 [attr...]";
+  // the first attribute (the region attribute) is the material.
+  {
+    TokenLines in(p.ele);
+    if (!in.next()) throw InputError(p.ele + ": the file is empty (expected a TetGen .ele header)");
+    const int64_t nt = in.integer(0, "number of tetrahedra");
+    if (nt < 0) in.fail("negative number of tetrahedra");
+    const int64_t corners = in.size() > 1 ? in.integer(1, "nodes per tetrahedron") : 4;
+    if (corners == 10)
+      in.fail("10-node (second-order, TetGen -o2) tetrahedra are not supported; "
+              "regenerate the mesh without -o2");
+    if (corners != 4)
+      in.fail(std::to_string(corners) + " nodes per tetrahedron; only 4 is supported");
+    const int64_t nattr = in.size() > 2 ? in.integer(2, "number of attributes") : 0;
+    if (nattr < 0) in.fail("negative number of attributes");
+    const int64_t np = static_cast<int64_t>(m.points.size());
+    m.tets.reserve(boundedReserve(nt, in.bytes(), 10));
+    m.materials.reserve(m.tets.capacity());
+    int64_t eleBase = 0;
+    for (int64_t t = 0; t < nt; ++t) {
+      if (!in.next()) {
+        std::ostringstream msg;
+        msg << p.ele << ": the file ends at line " << in.line() << " after " << t << " of the "
+            << nt << " tetrahedra announced in the header (truncated file?)";
+        throw InputError(msg.str());
+      }
+      const int64_t idx = in.integer(0, "tetrahedron index");
+      if (t == 0) eleBase = idx;
+      else if (idx != eleBase + t)
+        in.fail("tetrahedron index " + std::to_string(idx) + " out of sequence (expected " +
+                std::to_string(eleBase + t) + ")");
+      TetMesh::Tet tet{};
+      for (int k = 0; k < 4; ++k) {
+        const int64_t v = in.integer(1 + static_cast<size_t>(k), "node number");
+        if (v < nodeBase || v >= nodeBase + np) {
+          std::ostringstream msg;
+          msg << "tetrahedron " << idx << " refers to node " << v << ", but " << p.node
+              << " has nodes " << nodeBase << ".." << nodeBase + np - 1;
+          in.fail(msg.str());
+        }
+        tet[k] = static_cast<int32_t>(v - nodeBase);
+      }
+      int32_t material = 0;
+      if (nattr >= 1) {
+        const double a = in.real(5, "region attribute");
+        if (a != std::floor(a) || a < std::numeric_limits<int32_t>::min() ||
+            a > std::numeric_limits<int32_t>::max())
+          in.fail("the region attribute of tetrahedron " + std::to_string(idx) +
+                  " is not an integer material label");
+        material = static_cast<int32_t>(a);
+      }
+      m.tets.push_back(tet); // TetGen order == TetFlow order (see the file comment)
+      m.materials.push_back(material);
+    }
+  }
+  m.validateStructure(p.ele);
+  orientPositively(m);
+  return m;
+}
+
+// Geometry and materials only: fields are not stored. Both files or neither.
+void writeTetGen(const std::string& path, const TetMesh& m) {
+  const TetGenPaths p = tetgenPaths(path);
+  AtomicOutputFile nodeOut(p.node);
+  AtomicOutputFile eleOut(p.ele);
+  {
+    TextSink s(nodeOut.stream());
+    s.num(static_cast<int64_t>(m.numPoints())) << "  3  0  0\n";
+    for (size_t i = 0; i < m.numPoints(); ++i) {
+      s.num(static_cast<int64_t>(i) + 1);
+      for (double c : m.points[i]) {
+        s << ' ';
+        s.real(c);
+      }
+      s << '\n';
+    }
+  }
+  {
+    // Corner order written as stored: TetFlow's positive orientation is TetGen's convention.
+    TextSink s(eleOut.stream());
+    s.num(static_cast<int64_t>(m.numTets())) << "  4  1\n";
+    for (size_t t = 0; t < m.numTets(); ++t) {
+      s.num(static_cast<int64_t>(t) + 1);
+      TetMesh::Tet q = m.tets[t]; std::swap(q[0], q[1]);
+      for (int32_t v : q) {
+        s << ' ';
+        s.num(static_cast<int64_t>(v) + 1);
+      }
+      s << ' ';
+      s.num(m.materials[t]) << '\n';
+    }
+  }
+  nodeOut.commit();
+  eleOut.commit();
+}
+
+} // namespace
+
+// ------------------------------------------------------------------------------------------------
+// Public API
+// ------------------------------------------------------------------------------------------------
+
+MeshFormat meshFormatFromPath(const std::string& path) {
+  const std::string ext = fileExtension(path);
+  if (ext == ".vtu") return MeshFormat::Vtu;
+  if (ext == ".vtk") return MeshFormat::VtkLegacy;
+  if (ext == ".msh") return MeshFormat::Gmsh41;
+  if (ext == ".node" || ext == ".ele") return MeshFormat::TetGen;
+  if (ext.empty())
+    throw InputError(path + ": the mesh file name has no extension; supported: " +
+                     std::string(kSupported));
+  throw InputError(path + ": unknown mesh file extension '" + ext + "'; supported: " +
+                   std::string(kSupported));
+}
+
+const char* meshFormatName(MeshFormat f) {
+  switch (f) {
+  case MeshFormat::Auto: return "auto";
+  case MeshFormat::Vtu: return "vtu";
+  case MeshFormat::VtkLegacy: return "vtk";
+  case MeshFormat::Gmsh41: return "msh";
+  case MeshFormat::TetGen: return "tetgen";
+  }
+  return "unknown";
+}
+
+void writeMesh(const std::string& path, const TetMesh& mesh, MeshFormat format) {
+  if (format == MeshFormat::Auto) format = meshFormatFromPath(path);
+  mesh.validateStructure(path);
+  switch (format) {
+  case MeshFormat::Vtu: writeVtu(path, mesh); return;
+  case MeshFormat::VtkLegacy: writeVtkLegacy(path, mesh); return;
+  case MeshFormat::Gmsh41: writeGmsh(path, mesh); return;
+  case MeshFormat::TetGen: writeTetGen(path, mesh); return;
+  case MeshFormat::Auto: break;
+  }
+  throw InputError(path + ": invalid mesh format value " +
+                   std::to_string(static_cast<int>(format)));
+}
+
+TetMesh readMesh(const std::string& path, MeshFormat format) {
+  if (format == MeshFormat::Auto) format = meshFormatFromPath(path);
+  switch (format) {
+  case MeshFormat::Vtu: return readVtu(path);
+  case MeshFormat::VtkLegacy: return readVtkLegacy(path);
+  case MeshFormat::TetGen: return readTetGen(path);
+  case MeshFormat::Gmsh41:
+    throw InputError(path + ": reading Gmsh .msh files is not supported (readable: .vtu, .vtk, "
+                            ".node/.ele)");
+  case MeshFormat::Auto: break;
+  }
+  throw InputError(path + ": invalid mesh format value " +
+                   std::to_string(static_cast<int>(format)));
+}
+
+} // namespace tetflow

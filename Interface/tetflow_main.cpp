@@ -1,0 +1,325 @@
+// tetflow: the headless runner (no Qt). See README "Headless runner" and DESIGN §5.
+//
+//   tetflow run NET.srn [--set m3.param=value]... [--report out.json] [--threads N] [--quiet]
+//   tetflow -E NET.srn ...          (SCIRun's spelling of `run`)
+//   tetflow validate NET.srn [--set ...]
+//   tetflow list-modules
+//   tetflow describe MODULE
+//
+// Exit status: 0 all modules succeeded; 1 a module failed (downstream ones skipped); 2 bad
+// command-line arguments; 3 the network file cannot be loaded or a --set is invalid for it;
+// 4 the --report file cannot be written; 130 cancelled by Ctrl-C.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "Algorithms/IO/FileUtil.h"
+#include "Dataflow/Executor.h"
+#include "Dataflow/NetworkFile.h"
+#include "Dataflow/RunReport.h"
+#include "Modules/StandardModules.h"
+
+using namespace tetflow;
+
+namespace {
+
+constexpr int kExitModuleFailed = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitLoad = 3;
+constexpr int kExitReport = 4;
+constexpr int kExitCancelled = 130;
+
+volatile std::sig_atomic_t g_interrupted = 0;
+extern "C" void onSigint(int) {
+  g_interrupted = 1;
+  std::signal(SIGINT, SIG_DFL); // a second Ctrl-C ends the process at once
+}
+
+const char* kUsage =
+    "usage:\n"
+    "  tetflow run NET.srn [options]     execute a network (also: tetflow -E NET.srn)\n"
+    "  tetflow validate NET.srn [--set]  load and check a network without running it\n"
+    "  tetflow list-modules              list the available modules\n"
+    "  tetflow describe MODULE           ports and parameters of a module\n"
+    "options for run:\n"
+    "  --set ID.PARAM=VALUE   override a parameter (repeatable), e.g. --set m3.alpha_long=0.25\n"
+    "  --report FILE.json     write every module's report, timings and errors as JSON\n"
+    "  --threads N            worker threads and threads per module (default: all cores)\n"
+    "  --quiet                print only errors\n"
+    "exit status: 0 success, 1 module failed, 2 bad arguments, 3 network cannot be loaded,\n"
+    "             4 report cannot be written, 130 cancelled\n";
+
+int usageError(const std::string& msg) {
+  std::cerr << "tetflow: " << msg << "\n" << kUsage;
+  return kExitUsage;
+}
+
+struct RunArgs {
+  std::string net;
+  std::vector<std::string> sets;
+  std::string report;
+  int threads = 0;
+  bool quiet = false;
+};
+
+// Parses options after the command; returns an error message or "".
+std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArgs& r, bool allowRunOptions) {
+  for (size_t i = start; i < a.size(); ++i) {
+    const std::string& s = a[i];
+    auto value = [&](const std::string& opt) -> std::string {
+      if (i + 1 >= a.size()) throw std::invalid_argument(opt + " needs a value");
+      return a[++i];
+    };
+    try {
+      if (s == "--set") r.sets.push_back(value(s));
+      else if (s.rfind("--set=", 0) == 0) r.sets.push_back(s.substr(6));
+      else if (allowRunOptions && s == "--report") r.report = value(s);
+      else if (allowRunOptions && s == "--threads") {
+        const std::string v = value(s);
+        size_t used = 0;
+        int n = -1;
+        try { n = std::stoi(v, &used); } catch (...) {}
+        if (used != v.size() || n < 1 || n > 1024) return "--threads '" + v + "' must be a whole number from 1 to 1024";
+        r.threads = n;
+      } else if (allowRunOptions && s == "--quiet") r.quiet = true;
+      else if (!s.empty() && s[0] == '-') return "unknown option '" + s + "'";
+      else if (r.net.empty()) r.net = s;
+      else return "unexpected argument '" + s + "' (one network file at a time)";
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+  }
+  if (r.net.empty()) return "no network file given";
+  return "";
+}
+
+// Applies --set overrides; returns problems (empty when all applied).
+std::vector<std::string> applySets(Network& net, const std::vector<std::string>& sets) {
+  std::vector<std::string> problems;
+  for (const auto& s : sets) {
+    const auto eq = s.find('=');
+    const auto dot = s.find('.');
+    if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || dot + 1 == eq) {
+      problems.push_back("--set '" + s + "': expected ID.PARAM=VALUE, e.g. m3.alpha_long=0.25");
+      continue;
+    }
+    const std::string id = s.substr(0, dot), param = s.substr(dot + 1, eq - dot - 1), val = s.substr(eq + 1);
+    try {
+      net.setParameterText(id, param, val);
+    } catch (const InputError& e) {
+      problems.push_back("--set '" + s + "': " + e.what());
+    }
+  }
+  return problems;
+}
+
+int loadForCli(const std::string& path, const ModuleRegistry& reg, const std::vector<std::string>& sets,
+               std::unique_ptr<Network>& out) {
+  try {
+    out = std::make_unique<Network>(loadNetwork(path, reg));
+  } catch (const InputError& e) {
+    std::cerr << "tetflow: " << e.what() << "\n";
+    return kExitLoad;
+  }
+  const auto problems = applySets(*out, sets);
+  for (const auto& p : problems) std::cerr << "tetflow: " << p << "\n";
+  return problems.empty() ? 0 : kExitLoad;
+}
+
+std::string summaryLine(const ModuleNode& m, const ModuleState& s) {
+  char head[160];
+  std::snprintf(head, sizeof head, "%-5s %-22s %-9s %8.3f s", m.id.c_str(), m.info->name.c_str(),
+                s.reused ? "reused" : moduleStatusName(s.status), s.seconds);
+  std::string line = head;
+  if (s.status == ModuleStatus::Error) return line + "  " + s.error;
+  if (s.status == ModuleStatus::Skipped) return line + "  (not run: upstream " + s.skippedBecause + " failed)";
+  for (const auto& k : m.info->summaryKeys)
+    if (const ReportValue* v = s.report.find(k)) line += "  " + k + "=" + formatReportValue(*v);
+  return line;
+}
+
+int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
+  std::unique_ptr<Network> net;
+  if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
+  // Check the report target before spending time on the run.
+  if (!args.report.empty()) {
+    try {
+      AtomicOutputFile probe(args.report);
+    } catch (const InputError& e) {
+      std::cerr << "tetflow: --report: " << e.what() << "\n";
+      return kExitReport;
+    }
+  }
+  Executor exec;
+  Executor::Options opt;
+  opt.threads = args.threads;
+  std::mutex printMutex;
+  ExecutionObserver obs;
+  obs.onStatus = [&](const std::string& id, ModuleStatus st) {
+    if (st == ModuleStatus::Waiting || st == ModuleStatus::Running) return;
+    const ModuleState* s = exec.state(id);
+    const ModuleNode* m = net->module(id);
+    if (!s || !m) return;
+    std::lock_guard<std::mutex> lock(printMutex);
+    const bool bad = st == ModuleStatus::Error;
+    if (args.quiet && !bad) return;
+    (bad ? std::cerr : std::cout) << summaryLine(*m, *s) << "\n";
+    if (!args.quiet)
+      for (const auto& msg : s->messages) std::cout << "      " << msg << "\n";
+    (bad ? std::cerr : std::cout).flush();
+  };
+
+  g_interrupted = 0;
+  std::signal(SIGINT, onSigint);
+  std::atomic<bool> done{false};
+  std::thread watcher([&] {
+    while (!done.load()) {
+      if (g_interrupted) {
+        exec.cancel();
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  });
+  Executor::Summary sum;
+  try {
+    sum = exec.execute(*net, opt, obs);
+  } catch (const std::exception& e) {
+    done = true;
+    watcher.join();
+    std::cerr << "tetflow: " << e.what() << "\n";
+    return kExitModuleFailed;
+  }
+  done = true;
+  watcher.join();
+  std::signal(SIGINT, SIG_DFL);
+
+  if (!args.quiet) {
+    std::printf("%s: %d ran, %d reused, %d failed, %d skipped, %d cancelled in %.3f s\n",
+                args.net.c_str(), sum.ran, sum.reused, sum.failed, sum.skipped, sum.cancelled,
+                sum.seconds);
+  }
+  if (!args.report.empty()) {
+    try {
+      AtomicOutputFile out(args.report);
+      out.stream() << executionReportJson(args.net, *net, exec, sum);
+      out.commit();
+    } catch (const InputError& e) {
+      std::cerr << "tetflow: --report: " << e.what() << "\n";
+      return kExitReport;
+    }
+  }
+  if (sum.cancelled > 0 || g_interrupted) {
+    std::cerr << "tetflow: cancelled\n";
+    return kExitCancelled;
+  }
+  return sum.success ? 0 : kExitModuleFailed;
+}
+
+int cmdValidate(const RunArgs& args, const ModuleRegistry& reg) {
+  std::unique_ptr<Network> net;
+  if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
+  // Also report required inputs left unconnected: the run would fail there.
+  int missing = 0;
+  for (const auto& m : net->modules())
+    for (size_t p = 0; p < m.info->inputs.size(); ++p)
+      if (!m.info->inputs[p].optional && !net->inputConnection(m.id, static_cast<int>(p))) {
+        std::cerr << "tetflow: " << args.net << ": module " << m.id << " (" << m.info->name
+                  << "): required input port " << p << " (" << m.info->inputs[p].name
+                  << ") is not connected\n";
+        ++missing;
+      }
+  if (missing) return kExitLoad;
+  std::printf("%s: valid (%zu modules, %zu connections)\n", args.net.c_str(), net->modules().size(),
+              net->connections().size());
+  return 0;
+}
+
+int cmdList(const ModuleRegistry& reg) {
+  std::string cat;
+  for (const ModuleInfo* m : reg.all()) {
+    if (m->category != cat) {
+      cat = m->category;
+      std::printf("%s\n", cat.c_str());
+    }
+    std::string desc = m->description;
+    if (auto dot = desc.find(". "); dot != std::string::npos) desc = desc.substr(0, dot + 1);
+    std::printf("  %-24s %s\n", m->name.c_str(), desc.c_str());
+  }
+  return 0;
+}
+
+int cmdDescribe(const std::string& name, const ModuleRegistry& reg) {
+  const ModuleInfo* m = reg.find(name);
+  if (!m) {
+    std::cerr << "tetflow: unknown module '" << name << "'; `tetflow list-modules` lists them\n";
+    return kExitUsage;
+  }
+  std::printf("%s (%s / %s)\n  %s\n", m->name.c_str(), m->package.c_str(), m->category.c_str(),
+              m->description.c_str());
+  auto ports = [](const char* title, const std::vector<PortSpec>& ps) {
+    std::printf("%s:%s\n", title, ps.empty() ? " none" : "");
+    for (size_t i = 0; i < ps.size(); ++i) {
+      std::string types;
+      for (PortType t : ps[i].accepts) types += (types.empty() ? "" : " or ") + std::string(portTypeName(t));
+      std::printf("  %zu %-12s %-28s %s%s\n", i, ps[i].name.c_str(), types.c_str(),
+                  ps[i].description.c_str(), ps[i].optional ? " (optional)" : "");
+    }
+  };
+  ports("inputs", m->inputs);
+  ports("outputs", m->outputs);
+  std::printf("parameters:%s\n", m->params.empty() ? " none" : "");
+  for (const auto& p : m->params)
+    std::printf("  %-18s = %-14s %s; %s\n", p.name.c_str(),
+                ("'" + formatParam(p, p.defaultValue) + "'").c_str(), describeAllowed(p).c_str(),
+                p.description.c_str());
+  return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> a(argv + 1, argv + argc);
+  if (a.empty()) return usageError("no command given");
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  const std::string cmd = a[0];
+  try {
+    if (cmd == "--help" || cmd == "-h" || cmd == "help") {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (cmd == "--version") {
+      std::cout << "tetflow 0.1.0\n";
+      return 0;
+    }
+    if (cmd == "run" || cmd == "-E") {
+      RunArgs r;
+      if (auto err = parseRunArgs(a, 1, r, true); !err.empty()) return usageError(err);
+      return cmdRun(r, reg);
+    }
+    if (cmd == "validate") {
+      RunArgs r;
+      if (auto err = parseRunArgs(a, 1, r, false); !err.empty()) return usageError(err);
+      return cmdValidate(r, reg);
+    }
+    if (cmd == "list-modules") {
+      if (a.size() != 1) return usageError("list-modules takes no arguments");
+      return cmdList(reg);
+    }
+    if (cmd == "describe") {
+      if (a.size() != 2) return usageError("describe takes one module name");
+      return cmdDescribe(a[1], reg);
+    }
+    return usageError("unknown command '" + cmd + "'");
+  } catch (const std::exception& e) {
+    std::cerr << "tetflow: internal error: " << e.what() << "\n";
+    return kExitModuleFailed;
+  }
+}

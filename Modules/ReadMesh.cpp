@@ -1,0 +1,42 @@
+// ReadMesh: a tetrahedral mesh from .vtu, .vtk or TetGen .node/.ele.
+#include "Algorithms/IO/MeshIO.h"
+#include "StandardModules.h"
+
+namespace tetflow {
+
+namespace {
+class ReadMesh : public Module {
+public:
+  void execute(ExecutionContext& ctx) override {
+    const std::string path = ctx.getPath("filename");
+    ctx.progress().beginStage("read");
+    TetMesh mesh = readMesh(path);
+    ctx.progress().endStage();
+    ctx.report().set("file", path);
+    ctx.report().set("vertices", ReportValue(int64_t(mesh.numPoints())));
+    ctx.report().set("tets", ReportValue(int64_t(mesh.numTets())));
+    ctx.setOutput(0, makeData<TetMeshData>(std::move(mesh)));
+  }
+};
+} // namespace
+
+void registerReadMesh(ModuleRegistry& r) {
+  ModuleInfo m;
+  m.name = "ReadMesh";
+  m.category = "DataIO";
+  m.description = "Reads a tetrahedral mesh (.vtu, .vtk, TetGen .node/.ele) with its material "
+                  "labels and fields.";
+  m.outputs = {{"mesh", {PortType::TetMesh}, "the mesh"}};
+  ParamSpec f;
+  f.name = "filename";
+  f.type = ParamType::String;
+  f.defaultValue = std::string();
+  f.description = "mesh file; relative names resolve against the network file's folder";
+  f.isInputPath = true;
+  m.params = {f};
+  m.summaryKeys = {"vertices", "tets"};
+  m.factory = [] { return std::make_unique<ReadMesh>(); };
+  r.add(std::move(m));
+}
+
+} // namespace tetflow

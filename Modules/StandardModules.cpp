@@ -1,0 +1,42 @@
+#include "StandardModules.h"
+
+#include <sstream>
+
+namespace tetflow {
+
+void registerStandardModules(ModuleRegistry& r) {
+  registerCreatePhantom(r);
+  registerReadLabelVolume(r);
+  registerWriteVolume(r);
+  registerReadMesh(r);
+  registerWriteMesh(r);
+}
+
+void reportLabelVolume(Report& report, const LabelVolume& v) {
+  const auto& g = v.grid;
+  auto triple = [](double a, double b, double c) {
+    std::ostringstream s;
+    s << a << " x " << b << " x " << c;
+    return s.str();
+  };
+  report.set("dims", std::to_string(g.dims[0]) + " x " + std::to_string(g.dims[1]) + " x " +
+                         std::to_string(g.dims[2]));
+  report.set("voxels", ReportValue(int64_t(g.voxelCount())));
+  report.set("spacing_mm", triple(g.spacing[0], g.spacing[1], g.spacing[2]));
+  std::ostringstream o;
+  o << g.origin[0] << " " << g.origin[1] << " " << g.origin[2];
+  report.set("origin_mm", o.str());
+  report.set("axis_aligned", ReportValue(g.isAxisAligned()));
+  const auto counts = labelCounts(v);
+  report.set("labels", ReportValue(int64_t(counts.size())));
+  std::string list;
+  for (const auto& [label, n] : counts) list += (list.empty() ? "" : " ") + std::to_string(label);
+  report.set("label_values", list);
+  for (const auto& [label, n] : counts) {
+    report.set("label_" + std::to_string(label) + "_voxels", ReportValue(int64_t(n)));
+    report.set("label_" + std::to_string(label) + "_volume_mm3",
+               ReportValue(double(n) * g.voxelVolume()));
+  }
+}
+
+} // namespace tetflow

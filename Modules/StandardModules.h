@@ -1,0 +1,20 @@
+#pragma once
+// Registration of every TetFlow module. Dataflow never includes concrete modules: tools call this
+// once to fill a registry.
+#include "Dataflow/ModuleRegistry.h"
+
+namespace tetflow {
+
+void registerStandardModules(ModuleRegistry& registry);
+
+// One per module file.
+void registerCreatePhantom(ModuleRegistry& r);
+void registerReadLabelVolume(ModuleRegistry& r);
+void registerWriteVolume(ModuleRegistry& r);
+void registerReadMesh(ModuleRegistry& r);
+void registerWriteMesh(ModuleRegistry& r);
+
+// Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
+void reportLabelVolume(Report& report, const LabelVolume& v);
+
+} // namespace tetflow

@@ -1,0 +1,980 @@
+// Tests for Algorithms/IO/MeshIO: round trips (.vtu, .vtk, TetGen), the Gmsh 4.1 writer checked by
+// an independent parser, and broken / unwritable inputs.
+#include "Algorithms/IO/MeshIO.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <vtkCellType.h>
+#include <vtkFloatArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkSmartPointer.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkUnstructuredGridWriter.h>
+#include <vtkXMLUnstructuredGridWriter.h>
+
+#include "Algorithms/Core/Errors.h"
+#include "TestUtil.h"
+
+namespace tetflow {
+namespace {
+
+using test::TempDir;
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------
+// Mesh builders
+// ---------------------------------------------------------------------------------------------
+
+void orientPositive(TetMesh& m) {
+  for (size_t t = 0; t < m.numTets(); ++t)
+    if (m.tetVolume(t) < 0) std::swap(m.tets[t][0], m.tets[t][1]);
+}
+
+// Grid of nx*ny*nz cubes of edge h at `origin`, each split into the 6 Kuhn tets around its main
+// diagonal (a conforming tetrahedralisation). Interior vertices are moved by up to
+// `perturb`*h per axis. Tets are then made positively oriented.
+TetMesh kuhnGrid(int nx, int ny, int nz, double h, Vec3 origin, double perturb, unsigned seed) {
+  TetMesh m;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-perturb * h, perturb * h);
+  auto vid = [&](int i, int j, int k) { return i + (nx + 1) * (j + (ny + 1) * k); };
+  for (int k = 0; k <= nz; ++k)
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= nx; ++i) {
+        Vec3 p = origin + Vec3{i * h, j * h, k * h};
+        const bool interior = i > 0 && i < nx && j > 0 && j < ny && k > 0 && k < nz;
+        if (interior && perturb > 0)
+          for (double& c : p) c += u(rng);
+        m.points.push_back(p);
+      }
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)
+        for (const auto& perm : perms) {
+          int c[3] = {i, j, k};
+          TetMesh::Tet t{};
+          t[0] = vid(c[0], c[1], c[2]);
+          for (int s = 0; s < 3; ++s) {
+            ++c[perm[s]];
+            t[s + 1] = vid(c[0], c[1], c[2]);
+          }
+          m.tets.push_back(t);
+        }
+  orientPositive(m);
+  m.materials.assign(m.numTets(), 0);
+  return m;
+}
+
+void addFields(TetMesh& m, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1e6, 1e6);
+  Field temperature{1, {}}, displacement{3, {}}, quality{1, {}}, direction{3, {}};
+  for (const Vec3& p : m.points) {
+    temperature.values.push_back(p[0] + 2 * p[1] + 3 * p[2]);
+    for (int a = 0; a < 3; ++a) displacement.values.push_back(u(rng) * 1e-9);
+  }
+  for (size_t t = 0; t < m.numTets(); ++t) {
+    quality.values.push_back(m.tetVolume(t));
+    for (int a = 0; a < 3; ++a) direction.values.push_back(u(rng));
+  }
+  m.pointFields["temperature"] = temperature;
+  m.pointFields["displacement"] = displacement;
+  m.cellFields["quality"] = quality;
+  m.cellFields["direction"] = direction;
+}
+
+// Unit cube, 6 tets, two materials, point and cell fields (scalar and 3-component).
+TetMesh cubeMesh() {
+  TetMesh m = kuhnGrid(1, 1, 1, 1.0, {0, 0, 0}, 0.0, 1);
+  m.materials = {1, 1, 1, 7, 7, 7};
+  addFields(m, 2);
+  return m;
+}
+
+// Perturbed 3x3x2 grid far from the origin, labels including 0 and a negative one.
+TetMesh randomMesh(unsigned seed) {
+  TetMesh m = kuhnGrid(3, 3, 2, 0.37, {1000.5, -20.25, 3e-3}, 0.2, seed);
+  std::mt19937 rng(seed + 100);
+  const int32_t labels[] = {-2, 0, 3, 5};
+  for (auto& l : m.materials) l = labels[rng() % 4];
+  addFields(m, seed + 200);
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Comparison helpers
+// ---------------------------------------------------------------------------------------------
+
+bool closeRel(double a, double b) { return std::abs(a - b) <= 1e-12 * std::abs(a); }
+
+void expectSameGeometry(const TetMesh& want, const TetMesh& got) {
+  ASSERT_EQ(got.numPoints(), want.numPoints());
+  for (size_t i = 0; i < want.numPoints(); ++i)
+    for (int a = 0; a < 3; ++a)
+      EXPECT_TRUE(closeRel(want.points[i][a], got.points[i][a]))
+          << "point " << i << " axis " << a << ": " << want.points[i][a] << " vs "
+          << got.points[i][a];
+  ASSERT_EQ(got.numTets(), want.numTets());
+  for (size_t t = 0; t < want.numTets(); ++t) {
+    EXPECT_EQ(got.tets[t], want.tets[t]) << "tet " << t;
+    EXPECT_GT(got.tetVolume(t), 0.0) << "tet " << t;
+  }
+  EXPECT_EQ(got.materials, want.materials);
+}
+
+void expectSameFields(const std::map<std::string, Field>& want,
+                      const std::map<std::string, Field>& got) {
+  ASSERT_EQ(got.size(), want.size());
+  for (const auto& [name, f] : want) {
+    auto it = got.find(name);
+    ASSERT_NE(it, got.end()) << "missing field " << name;
+    EXPECT_EQ(it->second.components, f.components) << name;
+    ASSERT_EQ(it->second.values.size(), f.values.size()) << name;
+    for (size_t i = 0; i < f.values.size(); ++i)
+      EXPECT_TRUE(closeRel(f.values[i], it->second.values[i])) << name << "[" << i << "]";
+  }
+}
+
+std::vector<std::string> dirEntries(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Format selection
+// ---------------------------------------------------------------------------------------------
+
+TEST(MeshIOFormat, FromPathAndNames) {
+  EXPECT_EQ(meshFormatFromPath("a/b.vtu"), MeshFormat::Vtu);
+  EXPECT_EQ(meshFormatFromPath("B.VTU"), MeshFormat::Vtu);
+  EXPECT_EQ(meshFormatFromPath("x.vtk"), MeshFormat::VtkLegacy);
+  EXPECT_EQ(meshFormatFromPath("x.msh"), MeshFormat::Gmsh41);
+  EXPECT_EQ(meshFormatFromPath("x.node"), MeshFormat::TetGen);
+  EXPECT_EQ(meshFormatFromPath("x.1.ele"), MeshFormat::TetGen);
+  EXPECT_STREQ(meshFormatName(MeshFormat::Vtu), "vtu");
+  EXPECT_STREQ(meshFormatName(MeshFormat::VtkLegacy), "vtk");
+  EXPECT_STREQ(meshFormatName(MeshFormat::Gmsh41), "msh");
+  EXPECT_STREQ(meshFormatName(MeshFormat::TetGen), "tetgen");
+  EXPECT_THROW_MSG(meshFormatFromPath("dir/mesh.stl"), InputError, "dir/mesh.stl", ".stl",
+                   ".vtu", ".vtk", ".msh", ".node", ".ele");
+  EXPECT_THROW_MSG(meshFormatFromPath("mesh"), InputError, "mesh", "extension", ".vtu");
+  TempDir dir;
+  EXPECT_THROW_MSG(writeMesh(dir.file("m.ply"), cubeMesh()), InputError, "m.ply", ".vtu");
+  EXPECT_TRUE(dirEntries(dir.path()).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round trips
+// ---------------------------------------------------------------------------------------------
+
+class MeshIORoundTrip : public ::testing::TestWithParam<std::string> {
+protected:
+  bool storesFields() const { return GetParam() == ".vtu" || GetParam() == ".vtk"; }
+  // TetGen: write under one name, read back under the other.
+  std::string readName(const std::string& written) const {
+    if (GetParam() == ".node") return written.substr(0, written.size() - 5) + ".ele";
+    if (GetParam() == ".ele") return written.substr(0, written.size() - 4) + ".node";
+    return written;
+  }
+  void roundTrip(const TetMesh& mesh) {
+    TempDir dir;
+    const std::string path = dir.file("mesh" + GetParam());
+    writeMesh(path, mesh);
+    const TetMesh back = readMesh(readName(path));
+    expectSameGeometry(mesh, back);
+    if (storesFields()) {
+      expectSameFields(mesh.pointFields, back.pointFields);
+      expectSameFields(mesh.cellFields, back.cellFields);
+    } else {
+      EXPECT_TRUE(back.pointFields.empty());
+      EXPECT_TRUE(back.cellFields.empty());
+    }
+    // Only the final files remain: no temporaries.
+    std::vector<std::string> want = {"mesh" + GetParam()};
+    if (!storesFields()) want = {"mesh.ele", "mesh.node"};
+    EXPECT_EQ(dirEntries(dir.path()), want);
+  }
+};
+
+TEST_P(MeshIORoundTrip, Cube) { roundTrip(cubeMesh()); }
+
+TEST_P(MeshIORoundTrip, PerturbedGrids) {
+  for (unsigned seed : {11u, 12u, 13u}) {
+    SCOPED_TRACE(seed);
+    roundTrip(randomMesh(seed));
+  }
+}
+
+TEST_P(MeshIORoundTrip, ExtremeValues) {
+  TetMesh m = cubeMesh();
+  m.points[7] = {1e300, -1e-300, 0.1};
+  m.points[3] = {-0.0, 123456789.123456789, -7.0e-17};
+  m.materials = {std::numeric_limits<int32_t>::min(), -1, 0, 1, 65535,
+                 std::numeric_limits<int32_t>::max()};
+  m.cellFields["quality"].values[0] = 5e-324;
+  m.cellFields["quality"].values[1] = -1.7976931348623157e308;
+  // Orientation of the moved tets is irrelevant to the file round trip; keep it positive anyway.
+  orientPositive(m);
+  roundTrip(m);
+}
+
+TEST_P(MeshIORoundTrip, EmptyMesh) { roundTrip(TetMesh{}); }
+
+TEST_P(MeshIORoundTrip, OverwritesExistingFile) {
+  TempDir dir;
+  const std::string path = dir.file("mesh" + GetParam());
+  writeMesh(path, randomMesh(5));
+  const TetMesh cube = cubeMesh();
+  writeMesh(path, cube);
+  expectSameGeometry(cube, readMesh(readName(path)));
+}
+
+INSTANTIATE_TEST_SUITE_P(MeshIO, MeshIORoundTrip,
+                         ::testing::Values(".vtu", ".vtk", ".node", ".ele"),
+                         [](const auto& info) { return info.param.substr(1); });
+
+TEST(MeshIOVtk, ExplicitFormatOverridesExtension) {
+  TempDir dir;
+  const TetMesh m = cubeMesh();
+  writeMesh(dir.file("mesh.dat"), m, MeshFormat::Vtu);
+  expectSameGeometry(m, readMesh(dir.file("mesh.dat"), MeshFormat::Vtu));
+  writeMesh(dir.file("legacy.dat"), m, MeshFormat::VtkLegacy);
+  expectSameGeometry(m, readMesh(dir.file("legacy.dat"), MeshFormat::VtkLegacy));
+  writeMesh(dir.file("tg"), m, MeshFormat::TetGen);
+  EXPECT_TRUE(fs::exists(dir.file("tg.node")));
+  EXPECT_TRUE(fs::exists(dir.file("tg.ele")));
+  expectSameGeometry(m, readMesh(dir.file("tg"), MeshFormat::TetGen));
+}
+
+// ---------------------------------------------------------------------------------------------
+// VTK specifics and broken VTK files
+// ---------------------------------------------------------------------------------------------
+
+// A grid with a tetrahedron (cell 0) and a hexahedron (cell 1).
+vtkSmartPointer<vtkUnstructuredGrid> tetAndHexGrid() {
+  auto g = vtkSmartPointer<vtkUnstructuredGrid>::New();
+  vtkNew<vtkPoints> pts;
+  const double p[12][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {2, 0, 0}, {3, 0, 0},
+                           {3, 1, 0}, {2, 1, 0}, {2, 0, 1}, {3, 0, 1}, {3, 1, 1}, {2, 1, 1}};
+  for (const auto& q : p) pts->InsertNextPoint(q);
+  g->SetPoints(pts);
+  g->Allocate(2);
+  const vtkIdType tet[4] = {0, 1, 2, 3};
+  const vtkIdType hex[8] = {4, 5, 6, 7, 8, 9, 10, 11};
+  g->InsertNextCell(VTK_TETRA, 4, tet);
+  g->InsertNextCell(VTK_HEXAHEDRON, 8, hex);
+  return g;
+}
+
+TEST(MeshIOVtk, HexahedronCellRefused) {
+  TempDir dir;
+  auto grid = tetAndHexGrid();
+  {
+    vtkNew<vtkXMLUnstructuredGridWriter> w;
+    w->SetFileName(dir.file("hex.vtu").c_str());
+    w->SetInputData(grid);
+    ASSERT_EQ(w->Write(), 1);
+  }
+  {
+    vtkNew<vtkUnstructuredGridWriter> w;
+    w->SetFileName(dir.file("hex.vtk").c_str());
+    w->SetInputData(grid);
+    ASSERT_EQ(w->Write(), 1);
+  }
+  for (const char* name : {"hex.vtu", "hex.vtk"}) {
+    SCOPED_TRACE(name);
+    const std::string path = dir.file(name);
+    EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str(), "cell 1", "Hexahedron", "12");
+  }
+}
+
+TEST(MeshIOVtk, MissingMaterialIsZeroAndArraysBecomeDoubleFields) {
+  TempDir dir;
+  vtkNew<vtkUnstructuredGrid> g;
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToFloat();
+  // Deliberately stored with negative orientation: the reader must hand out a positive tet.
+  const double p[4][3] = {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, {0, 0, 1}};
+  for (const auto& q : p) pts->InsertNextPoint(q);
+  g->SetPoints(pts);
+  const vtkIdType tet[4] = {0, 1, 2, 3};
+  g->Allocate(1);
+  g->InsertNextCell(VTK_TETRA, 4, tet);
+  vtkNew<vtkFloatArray> f;
+  f->SetName("speed");
+  f->SetNumberOfComponents(2);
+  for (int i = 0; i < 4; ++i) f->InsertNextTuple2(i * 0.5, -i);
+  g->GetPointData()->AddArray(f);
+  vtkNew<vtkXMLUnstructuredGridWriter> w;
+  w->SetFileName(dir.file("plain.vtu").c_str());
+  w->SetInputData(g);
+  ASSERT_EQ(w->Write(), 1);
+
+  const TetMesh m = readMesh(dir.file("plain.vtu"));
+  ASSERT_EQ(m.numPoints(), 4u);
+  ASSERT_EQ(m.numTets(), 1u);
+  EXPECT_EQ(m.materials, std::vector<int32_t>{0});
+  EXPECT_GT(m.tetVolume(0), 0.0);
+  EXPECT_EQ((TetMesh::Tet{1, 0, 2, 3}), m.tets[0]);
+  ASSERT_EQ(m.pointFields.count("speed"), 1u);
+  EXPECT_EQ(m.pointFields.at("speed").components, 2);
+  EXPECT_EQ(m.pointFields.at("speed").values,
+            (std::vector<double>{0, 0, 0.5, -1, 1, -2, 1.5, -3}));
+  EXPECT_TRUE(m.cellFields.empty());
+}
+
+TEST(MeshIOVtk, MissingFiles) {
+  TempDir dir;
+  for (const char* name : {"none.vtu", "none.vtk", "none.node", "none.ele"}) {
+    SCOPED_TRACE(name);
+    EXPECT_THROW_MSG(readMesh(dir.file(name)), InputError, "none.", "not found");
+  }
+}
+
+TEST(MeshIOVtk, GarbageFiles) {
+  TempDir dir;
+  std::mt19937 rng(99);
+  std::string noise(4096, '\0');
+  for (char& c : noise) c = static_cast<char>(rng() & 0xff);
+  const std::string texts[] = {
+      "",
+      "this is not a mesh\n",
+      noise,
+      "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\">\n<Unstruct",
+      "<VTKFile type=\"PolyData\" version=\"0.1\"><PolyData><Piece NumberOfPoints=\"0\" "
+      "NumberOfVerts=\"0\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
+      "</Piece></PolyData></VTKFile>\n",
+      "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\"><UnstructuredGrid><Piece "
+      "NumberOfPoints=\"4\" NumberOfCells=\"1\"></Piece></UnstructuredGrid></VTKFile>\n",
+      "# vtk DataFile Version 4.2\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 99999 double\n",
+      "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n0 0 0\n",
+      "# vtk DataFile Version 4.2\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n"
+      "0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 7\nCELL_TYPES 1\n10\n",
+  };
+  int k = 0;
+  for (const std::string& text : texts) {
+    for (const char* ext : {".vtu", ".vtk"}) {
+      const std::string path = dir.file("garbage" + std::to_string(k) + ext);
+      SCOPED_TRACE(path);
+      test::writeBytes(path, text);
+      EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str());
+    }
+    ++k;
+  }
+}
+
+// Cut a valid file at many places inside its data: every prefix must be an InputError.
+void expectTruncationsRefused(const std::string& full, size_t dataEnd, const std::string& path) {
+  ASSERT_GT(dataEnd, 0u);
+  std::vector<size_t> cuts = {0, 1, 10, dataEnd - 1, dataEnd - 3};
+  for (size_t c = 17; c < dataEnd; c += std::max<size_t>(1, dataEnd / 60)) cuts.push_back(c);
+  for (size_t c : cuts) {
+    SCOPED_TRACE("cut at " + std::to_string(c) + " of " + std::to_string(full.size()));
+    test::writeBytes(path, full.substr(0, c));
+    EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str());
+  }
+}
+
+TEST(MeshIOVtk, TruncatedVtu) {
+  TempDir dir;
+  const std::string good = dir.file("good.vtu");
+  writeMesh(good, randomMesh(21));
+  const std::string full = readText(good);
+  // Appended data ends right before "</AppendedData>"; XML after it carries no data.
+  const size_t dataEnd = full.rfind("</AppendedData>");
+  ASSERT_NE(dataEnd, std::string::npos);
+  expectTruncationsRefused(full, dataEnd - 3, dir.file("cut.vtu"));
+}
+
+TEST(MeshIOVtk, TruncatedVtk) {
+  TempDir dir;
+  const std::string good = dir.file("good.vtk");
+  writeMesh(good, randomMesh(22));
+  const std::string full = readText(good);
+  expectTruncationsRefused(full, full.size() - 2, dir.file("cut.vtk"));
+}
+
+TEST(MeshIOVtk, ReservedAndEmptyFieldNames) {
+  TempDir dir;
+  TetMesh m = cubeMesh();
+  m.cellFields["material"] = Field{1, std::vector<double>(m.numTets(), 1.0)};
+  EXPECT_THROW_MSG(writeMesh(dir.file("m.vtu"), m), InputError, "m.vtu", "material");
+  TetMesh e = cubeMesh();
+  e.pointFields[""] = Field{1, std::vector<double>(e.numPoints(), 1.0)};
+  EXPECT_THROW_MSG(writeMesh(dir.file("e.vtk"), e), InputError, "e.vtk", "empty name");
+  EXPECT_TRUE(dirEntries(dir.path()).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// TetGen
+// ---------------------------------------------------------------------------------------------
+
+std::vector<std::vector<std::string>> tokenLines(const std::string& path) {
+  std::vector<std::vector<std::string>> lines;
+  std::istringstream in(readText(path));
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    std::vector<std::string> toks;
+    std::string t;
+    while (ls >> t) toks.push_back(t);
+    if (!toks.empty()) lines.push_back(toks);
+  }
+  return lines;
+}
+
+TEST(MeshIOTetGen, FileLayoutAndOrientation) {
+  TempDir dir;
+  TetMesh m = cubeMesh();
+  m.points[0] = {0.1, -2.5e-7, 1.0 / 3.0};
+  orientPositive(m);
+  writeMesh(dir.file("cube.ele"), m);
+  const auto node = tokenLines(dir.file("cube.node"));
+  const auto ele = tokenLines(dir.file("cube.ele"));
+  ASSERT_EQ(node.size(), 9u);
+  EXPECT_EQ(node[0], (std::vector<std::string>{"8", "3", "0", "0"}));
+  EXPECT_EQ(node[1], (std::vector<std::string>{"1", "0.10000000000000001", "-2.4999999999999999e-07",
+                                               "0.33333333333333331"}));
+  for (size_t i = 1; i < node.size(); ++i) EXPECT_EQ(node[i][0], std::to_string(i));
+  ASSERT_EQ(ele.size(), 7u);
+  EXPECT_EQ(ele[0], (std::vector<std::string>{"6", "4", "1"}));
+  for (size_t t = 0; t < 6; ++t) {
+    const auto& l = ele[t + 1];
+    ASSERT_EQ(l.size(), 6u);
+    EXPECT_EQ(l[0], std::to_string(t + 1));
+    // 1-based corners in TetGen order; TetGen 1.5 keeps orient3d(a,b,c,d) < 0, i.e. positive
+    // TetFlow volume: the same order as in memory.
+    Vec3 c[4];
+    for (int k = 0; k < 4; ++k) {
+      const int v = std::stoi(l[1 + k]);
+      ASSERT_GE(v, 1);
+      ASSERT_LE(v, 8);
+      EXPECT_EQ(v - 1, m.tets[t][k]);
+      c[k] = m.points[static_cast<size_t>(v - 1)];
+    }
+    EXPECT_GT(signedTetVolume(c[0], c[1], c[2], c[3]), 0.0);
+    EXPECT_EQ(l[5], std::to_string(m.materials[t]));
+  }
+}
+
+TEST(MeshIOTetGen, ReadsZeroBasedCommentsAttributesMarkers) {
+  TempDir dir;
+  test::writeBytes(dir.file("t.node"),
+                   "# a TetGen node file\n"
+                   "5 3 2 1   # 5 nodes, 2 attributes, markers\n"
+                   "\n"
+                   "0  0.0 0.0 0.0   7.5 8.5  1\n"
+                   "1  1.0 0.0 0.0   7.5 8.5  1\r\n"
+                   "2  0.0 1.0 0.0   7.5 8.5  0  # comment after data\n"
+                   "3  0.0 0.0 1.0   7.5 8.5  2\n"
+                   "4  1e0 1E+0 +1.0 0 0 0\n");
+  // No region attribute -> material 0; tet 1 is stored inverted and must come back positive.
+  test::writeBytes(dir.file("t.ele"),
+                   "2 4 0\n"
+                   "0 0 1 2 3\n"
+                   "# between\n"
+                   "1 2 1 3 4\n");
+  const TetMesh m = readMesh(dir.file("t.node"));
+  ASSERT_EQ(m.numPoints(), 5u);
+  EXPECT_EQ(m.points[4], (Vec3{1, 1, 1}));
+  ASSERT_EQ(m.numTets(), 2u);
+  EXPECT_EQ(m.tets[0], (TetMesh::Tet{0, 1, 2, 3}));
+  EXPECT_EQ(m.materials, (std::vector<int32_t>{0, 0}));
+  EXPECT_GT(m.tetVolume(0), 0.0);
+  EXPECT_GT(m.tetVolume(1), 0.0);
+  EXPECT_EQ(m.tets[1], (TetMesh::Tet{1, 2, 3, 4}));
+}
+
+TEST(MeshIOTetGen, RegionAttributeIsMaterial) {
+  TempDir dir;
+  test::writeBytes(dir.file("r.node"), "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+  test::writeBytes(dir.file("r.ele"), "1 4 1\n1 1 2 3 4 -12\n");
+  const TetMesh m = readMesh(dir.file("r.ele"));
+  EXPECT_EQ(m.materials, std::vector<int32_t>{-12});
+  test::writeBytes(dir.file("r.ele"), "1 4 1\n1 1 2 3 4 2.5\n");
+  EXPECT_THROW_MSG(readMesh(dir.file("r.ele")), InputError, "r.ele", "line 2", "region attribute");
+  test::writeBytes(dir.file("r.ele"), "1 4 1\n1 1 2 3 4\n");
+  EXPECT_THROW_MSG(readMesh(dir.file("r.ele")), InputError, "r.ele", "line 2", "region attribute");
+}
+
+TEST(MeshIOTetGen, TruncatedNodeFile) {
+  TempDir dir;
+  writeMesh(dir.file("m.node"), cubeMesh());
+  std::string node = readText(dir.file("m.node"));
+  // Keep the header and four nodes, cut the fifth in the middle of a line.
+  size_t pos = 0;
+  for (int i = 0; i < 5; ++i) pos = node.find('\n', pos) + 1;
+  test::writeBytes(dir.file("m.node"), node.substr(0, pos + 3));
+  EXPECT_THROW_MSG(readMesh(dir.file("m.ele")), InputError, "m.node", "line 6");
+  test::writeBytes(dir.file("m.node"), node.substr(0, pos));
+  EXPECT_THROW_MSG(readMesh(dir.file("m.ele")), InputError, "m.node", "4 of the 8 nodes",
+                   "truncated");
+}
+
+TEST(MeshIOTetGen, EleRefersToMissingNode) {
+  TempDir dir;
+  test::writeBytes(dir.file("m.node"), "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+  test::writeBytes(dir.file("m.ele"), "2 4 0\n1 1 2 3 4\n2 1 2 3 99\n");
+  EXPECT_THROW_MSG(readMesh(dir.file("m.node")), InputError, "m.ele", "line 3", "node 99",
+                   "m.node", "1..4");
+  test::writeBytes(dir.file("m.ele"), "1 4 0\n1 0 2 3 4\n"); // 0 with 1-based nodes
+  EXPECT_THROW_MSG(readMesh(dir.file("m.node")), InputError, "m.ele", "line 2", "node 0");
+}
+
+TEST(MeshIOTetGen, BrokenFiles) {
+  TempDir dir;
+  const std::string node = dir.file("b.node"), ele = dir.file("b.ele");
+  const std::string goodNode = "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n";
+  const std::string goodEle = "1 4 0\n1 1 2 3 4\n";
+  struct Case {
+    std::string node, ele;
+    std::vector<std::string> fragments;
+  };
+  const std::vector<Case> cases = {
+      {goodNode, "1 10 0\n1 1 2 3 4 5 6 7 8 9 10\n", {"b.ele", "line 1", "10-node"}},
+      {goodNode, "1 3 0\n1 1 2 3\n", {"b.ele", "line 1", "only 4"}},
+      {goodNode, "3 4 0\n1 1 2 3 4\n", {"b.ele", "1 of the 3 tetrahedra", "truncated"}},
+      {goodNode, "1 4 0\n1 1 2 x 4\n", {"b.ele", "line 2", "'x'"}},
+      {goodNode, "", {"b.ele", "empty"}},
+      {"4 2 0 0\n1 0 0\n", goodEle, {"b.node", "line 1", "dimension 2"}},
+      {"4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 nan\n4 0 0 1\n", goodEle, {"b.node", "line 4", "nan"}},
+      {"4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1.5.2 0\n4 0 0 1\n", goodEle, {"b.node", "line 4"}},
+      {"4 3 0 0\n1 0 0 0\n3 1 0 0\n", goodEle, {"b.node", "line 3", "out of sequence"}},
+      {"4 3 0 0\n5 0 0 0\n", goodEle, {"b.node", "line 2", "0 or 1"}},
+      {"4 3 0 0\n1 0 0\n", goodEle, {"b.node", "line 2", "z coordinate"}},
+      {"999999999999 3 0 0\n1 0 0 0\n", goodEle, {"b.node"}},
+      {"", goodEle, {"b.node", "empty"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.node + "|" + c.ele);
+    test::writeBytes(node, c.node);
+    test::writeBytes(ele, c.ele);
+    try {
+      readMesh(node);
+      ADD_FAILURE() << "expected InputError";
+    } catch (const InputError& e) {
+      for (const std::string& f : c.fragments)
+        EXPECT_NE(std::string(e.what()).find(f), std::string::npos)
+            << "message '" << e.what() << "' lacks '" << f << "'";
+    }
+  }
+  fs::remove(ele);
+  test::writeBytes(node, goodNode);
+  EXPECT_THROW_MSG(readMesh(node), InputError, "b.ele", "not found");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Gmsh MSH 4.1: parsed back by an independent minimal parser
+// ---------------------------------------------------------------------------------------------
+
+struct MshVolume {
+  int tag = 0;
+  double box[6] = {};
+  std::vector<int> physical;
+};
+struct MshBlock {
+  int dim = 0, entity = 0, type = 0;
+  std::vector<std::vector<long>> elements; // tag followed by node tags
+};
+struct MshFile {
+  std::vector<std::string> sectionOrder;
+  std::string version, fileType, dataSize;
+  std::map<int, std::pair<int, std::string>> physicalNames; // tag -> (dim, name)
+  std::vector<int> entityCounts;
+  std::vector<MshVolume> volumes;
+  long nodeBlocks = 0, numNodes = 0, minNode = 0, maxNode = 0;
+  std::map<long, Vec3> nodes;
+  std::vector<int> nodeBlockEntity;
+  long elemBlocks = 0, numElements = 0, minElem = 0, maxElem = 0;
+  std::vector<MshBlock> blocks;
+};
+
+MshFile parseMsh(const std::string& path) {
+  MshFile f;
+  std::istringstream all(readText(path));
+  std::string line;
+  std::map<std::string, std::string> sections;
+  while (std::getline(all, line)) {
+    if (line.empty()) continue;
+    EXPECT_EQ(line[0], '$') << "text outside a section: " << line;
+    const std::string name = line.substr(1);
+    f.sectionOrder.push_back(name);
+    std::string body;
+    bool closed = false;
+    while (std::getline(all, line)) {
+      if (line == "$End" + name) {
+        closed = true;
+        break;
+      }
+      body += line + "\n";
+    }
+    EXPECT_TRUE(closed) << "section " << name << " not closed";
+    sections[name] = body;
+  }
+  {
+    std::istringstream s(sections["MeshFormat"]);
+    s >> f.version >> f.fileType >> f.dataSize;
+  }
+  {
+    std::istringstream s(sections["PhysicalNames"]);
+    int n = 0;
+    s >> n;
+    for (int i = 0; i < n; ++i) {
+      int dim = 0, tag = 0;
+      std::string name;
+      s >> dim >> tag >> std::quoted(name);
+      EXPECT_TRUE(s) << "bad $PhysicalNames entry " << i;
+      EXPECT_EQ(f.physicalNames.count(tag), 0u) << "duplicate physical tag " << tag;
+      f.physicalNames[tag] = {dim, name};
+    }
+    std::string rest;
+    EXPECT_FALSE(s >> rest) << "extra text in $PhysicalNames";
+  }
+  {
+    std::istringstream s(sections["Entities"]);
+    f.entityCounts.resize(4);
+    for (int& c : f.entityCounts) s >> c;
+    for (int i = 0; i < f.entityCounts[3]; ++i) {
+      MshVolume v;
+      int np = 0, nb = 0;
+      s >> v.tag;
+      for (double& b : v.box) s >> b;
+      s >> np;
+      v.physical.resize(static_cast<size_t>(std::max(np, 0)));
+      for (int& p : v.physical) s >> p;
+      s >> nb;
+      EXPECT_EQ(nb, 0);
+      EXPECT_TRUE(s) << "bad volume entity " << i;
+      f.volumes.push_back(v);
+    }
+    std::string rest;
+    EXPECT_FALSE(s >> rest) << "extra text in $Entities";
+  }
+  {
+    std::istringstream s(sections["Nodes"]);
+    s >> f.nodeBlocks >> f.numNodes >> f.minNode >> f.maxNode;
+    for (long b = 0; b < f.nodeBlocks; ++b) {
+      int dim = 0, entity = 0, parametric = 0;
+      long count = 0;
+      s >> dim >> entity >> parametric >> count;
+      EXPECT_EQ(parametric, 0);
+      f.nodeBlockEntity.push_back(dim * 1000 + entity);
+      std::vector<long> tags(static_cast<size_t>(count));
+      for (long& t : tags) s >> t;
+      for (long t : tags) {
+        Vec3 p;
+        s >> p[0] >> p[1] >> p[2];
+        EXPECT_EQ(f.nodes.count(t), 0u) << "duplicate node " << t;
+        f.nodes[t] = p;
+      }
+      EXPECT_TRUE(s) << "bad node block " << b;
+    }
+    std::string rest;
+    EXPECT_FALSE(s >> rest) << "extra text in $Nodes";
+  }
+  {
+    std::istringstream s(sections["Elements"]);
+    s >> f.elemBlocks >> f.numElements >> f.minElem >> f.maxElem;
+    for (long b = 0; b < f.elemBlocks; ++b) {
+      MshBlock blk;
+      long count = 0;
+      s >> blk.dim >> blk.entity >> blk.type >> count;
+      const int nodesPer = blk.type == 4 ? 4 : 0;
+      EXPECT_EQ(nodesPer, 4) << "element type " << blk.type;
+      for (long e = 0; e < count; ++e) {
+        std::vector<long> el(static_cast<size_t>(1 + nodesPer));
+        for (long& x : el) s >> x;
+        blk.elements.push_back(el);
+      }
+      EXPECT_TRUE(s) << "bad element block " << b;
+      f.blocks.push_back(blk);
+    }
+    std::string rest;
+    EXPECT_FALSE(s >> rest) << "extra text in $Elements";
+  }
+  return f;
+}
+
+// Check the file against `m`; labels -> expected physical tags.
+void checkMsh(const std::string& path, const TetMesh& m, const std::map<int32_t, int>& tagOf) {
+  const MshFile f = parseMsh(path);
+  EXPECT_EQ(f.sectionOrder, (std::vector<std::string>{"MeshFormat", "PhysicalNames", "Entities",
+                                                      "Nodes", "Elements"}));
+  EXPECT_EQ(f.version, "4.1");
+  EXPECT_EQ(f.fileType, "0");
+  EXPECT_EQ(f.dataSize, "8");
+
+  // One 3D physical group per material, named material_<label>.
+  ASSERT_EQ(f.physicalNames.size(), tagOf.size());
+  std::map<int, int32_t> labelOfTag;
+  for (const auto& [label, tag] : tagOf) {
+    auto it = f.physicalNames.find(tag);
+    ASSERT_NE(it, f.physicalNames.end()) << "no physical group with tag " << tag;
+    EXPECT_EQ(it->second.first, 3);
+    EXPECT_EQ(it->second.second, "material_" + std::to_string(label));
+    labelOfTag[tag] = label;
+  }
+
+  // One volume entity per material carrying its physical tag.
+  EXPECT_EQ(f.entityCounts, (std::vector<int>{0, 0, 0, static_cast<int>(tagOf.size())}));
+  std::map<int, int32_t> labelOfEntity;
+  std::map<int, MshVolume> volumeOf;
+  for (const MshVolume& v : f.volumes) {
+    ASSERT_EQ(v.physical.size(), 1u);
+    ASSERT_EQ(labelOfTag.count(v.physical[0]), 1u);
+    EXPECT_EQ(labelOfEntity.count(v.tag), 0u) << "duplicate entity tag";
+    labelOfEntity[v.tag] = labelOfTag[v.physical[0]];
+    volumeOf[v.tag] = v;
+  }
+
+  // Nodes: 1..n, coordinates exact, on a volume entity.
+  EXPECT_EQ(f.numNodes, static_cast<long>(m.numPoints()));
+  EXPECT_EQ(f.minNode, 1);
+  EXPECT_EQ(f.maxNode, static_cast<long>(m.numPoints()));
+  ASSERT_EQ(f.nodes.size(), m.numPoints());
+  for (int e : f.nodeBlockEntity) {
+    EXPECT_EQ(e / 1000, 3);
+    EXPECT_EQ(labelOfEntity.count(e % 1000), 1u);
+  }
+  for (size_t i = 0; i < m.numPoints(); ++i) {
+    const Vec3& p = f.nodes.at(static_cast<long>(i) + 1);
+    for (int a = 0; a < 3; ++a) EXPECT_TRUE(closeRel(m.points[i][a], p[a])) << i;
+  }
+
+  // Elements: one block per material, type 4, consecutive tags from 1, tets grouped by material
+  // in their original order, positively oriented, inside their entity's bounding box.
+  EXPECT_EQ(f.elemBlocks, static_cast<long>(tagOf.size()));
+  EXPECT_EQ(f.numElements, static_cast<long>(m.numTets()));
+  EXPECT_EQ(f.minElem, m.numTets() ? 1 : 0);
+  EXPECT_EQ(f.maxElem, static_cast<long>(m.numTets()));
+  std::map<int32_t, std::vector<TetMesh::Tet>> want, got;
+  for (size_t t = 0; t < m.numTets(); ++t) want[m.materials[t]].push_back(m.tets[t]);
+  long nextTag = 1;
+  std::set<int> blockEntities;
+  for (const MshBlock& b : f.blocks) {
+    EXPECT_EQ(b.dim, 3);
+    EXPECT_EQ(b.type, 4);
+    ASSERT_EQ(labelOfEntity.count(b.entity), 1u);
+    EXPECT_TRUE(blockEntities.insert(b.entity).second) << "two blocks for entity " << b.entity;
+    const int32_t label = labelOfEntity[b.entity];
+    const MshVolume& vol = volumeOf[b.entity];
+    for (const auto& el : b.elements) {
+      EXPECT_EQ(el[0], nextTag++);
+      TetMesh::Tet t{};
+      for (int k = 0; k < 4; ++k) {
+        t[k] = static_cast<int32_t>(el[1 + k] - 1);
+        const Vec3& p = f.nodes.at(el[1 + k]);
+        for (int a = 0; a < 3; ++a) {
+          EXPECT_GE(p[a], vol.box[a]);
+          EXPECT_LE(p[a], vol.box[3 + a]);
+        }
+      }
+      EXPECT_GT(signedTetVolume(f.nodes.at(el[1]), f.nodes.at(el[2]), f.nodes.at(el[3]),
+                                f.nodes.at(el[4])),
+                0.0);
+      got[label].push_back(t);
+    }
+  }
+  EXPECT_EQ(got, want);
+}
+
+TEST(MeshIOGmsh, CubeTwoMaterials) {
+  TempDir dir;
+  const TetMesh m = cubeMesh();
+  writeMesh(dir.file("cube.msh"), m);
+  checkMsh(dir.file("cube.msh"), m, {{1, 1}, {7, 7}});
+  EXPECT_EQ(dirEntries(dir.path()), std::vector<std::string>{"cube.msh"});
+}
+
+TEST(MeshIOGmsh, NonPositiveLabelsGetFreshTags) {
+  TempDir dir;
+  const TetMesh m = randomMesh(31); // labels -2, 0, 3, 5
+  std::set<int32_t> labels(m.materials.begin(), m.materials.end());
+  ASSERT_EQ(labels, (std::set<int32_t>{-2, 0, 3, 5}));
+  writeMesh(dir.file("r.msh"), m);
+  // Labels >= 1 keep their value; -2 and 0 get 6 and 7 (above the maximum label 5), in order.
+  checkMsh(dir.file("r.msh"), m, {{-2, 6}, {0, 7}, {3, 3}, {5, 5}});
+  const std::string text = readText(dir.file("r.msh"));
+  EXPECT_NE(text.find("3 6 \"material_-2\""), std::string::npos);
+  EXPECT_NE(text.find("3 7 \"material_0\""), std::string::npos);
+}
+
+TEST(MeshIOGmsh, AllLabelsNonPositive) {
+  TempDir dir;
+  TetMesh m = cubeMesh();
+  m.materials = {0, 0, -5, -5, 0, -5};
+  writeMesh(dir.file("n.msh"), m);
+  checkMsh(dir.file("n.msh"), m, {{-5, 1}, {0, 2}});
+}
+
+TEST(MeshIOGmsh, EmptySectionsLeftOut) {
+  TempDir dir;
+  writeMesh(dir.file("empty.msh"), TetMesh{});
+  const MshFile e = parseMsh(dir.file("empty.msh"));
+  EXPECT_EQ(e.sectionOrder, (std::vector<std::string>{"MeshFormat", "Entities"}));
+  EXPECT_EQ(e.entityCounts, (std::vector<int>{0, 0, 0, 0}));
+
+  TetMesh pts;
+  pts.points = {{0, 0, 0}, {1, 2, 3}};
+  writeMesh(dir.file("pts.msh"), pts);
+  const MshFile p = parseMsh(dir.file("pts.msh"));
+  EXPECT_EQ(p.sectionOrder, (std::vector<std::string>{"MeshFormat", "Entities", "Nodes", "Elements"}));
+  ASSERT_EQ(p.volumes.size(), 1u);
+  EXPECT_TRUE(p.volumes[0].physical.empty());
+  EXPECT_EQ(p.nodes.size(), 2u);
+  EXPECT_EQ(p.numElements, 0);
+}
+
+// Cross-check with the real Gmsh when it is installed: it must read the file without warnings and
+// re-export (as MSH 2.2, which lists each element's physical tag) the same tets and materials.
+TEST(MeshIOGmsh, AcceptedByGmshIfInstalled) {
+  if (std::system("command -v gmsh > /dev/null 2>&1") != 0) GTEST_SKIP() << "gmsh not installed";
+  TempDir dir;
+  const TetMesh m = randomMesh(41);
+  writeMesh(dir.file("in.msh"), m);
+  const std::string log = dir.file("gmsh.log");
+  const std::string cmd = "gmsh '" + dir.file("in.msh") + "' -0 -format msh22 -o '" +
+                          dir.file("out.msh") + "' > '" + log + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << readText(log);
+  const std::string logText = readText(log);
+  EXPECT_EQ(logText.find("Warning"), std::string::npos) << logText;
+  EXPECT_EQ(logText.find("Error"), std::string::npos) << logText;
+
+  std::istringstream in(readText(dir.file("out.msh")));
+  std::string line;
+  std::map<int, std::string> names;
+  std::map<long, Vec3> nodes;
+  std::map<int32_t, std::vector<TetMesh::Tet>> got, want;
+  while (std::getline(in, line)) {
+    if (line == "$PhysicalNames") {
+      int n = 0;
+      in >> n;
+      for (int i = 0; i < n; ++i) {
+        int dim = 0, tag = 0;
+        std::string name;
+        in >> dim >> tag >> std::quoted(name);
+        names[tag] = name;
+      }
+    } else if (line == "$Nodes") {
+      long n = 0;
+      in >> n;
+      for (long i = 0; i < n; ++i) {
+        long id = 0;
+        Vec3 p;
+        in >> id >> p[0] >> p[1] >> p[2];
+        nodes[id] = p;
+      }
+    } else if (line == "$Elements") {
+      long n = 0;
+      in >> n;
+      ASSERT_EQ(n, static_cast<long>(m.numTets()));
+      for (long i = 0; i < n; ++i) {
+        long id = 0;
+        int type = 0, ntags = 0;
+        in >> id >> type >> ntags;
+        std::vector<int> tags(static_cast<size_t>(ntags));
+        for (int& t : tags) in >> t;
+        ASSERT_EQ(type, 4);
+        ASSERT_GE(ntags, 1);
+        TetMesh::Tet t{};
+        for (int32_t& v : t) {
+          long nid = 0;
+          in >> nid;
+          v = static_cast<int32_t>(nid - 1);
+        }
+        const std::string& name = names[tags[0]];
+        ASSERT_EQ(name.rfind("material_", 0), 0u) << name;
+        got[std::stoi(name.substr(9))].push_back(t);
+      }
+    }
+  }
+  ASSERT_EQ(nodes.size(), m.numPoints());
+  for (size_t i = 0; i < m.numPoints(); ++i)
+    for (int a = 0; a < 3; ++a)
+      EXPECT_TRUE(closeRel(m.points[i][a], nodes[static_cast<long>(i) + 1][a])) << i;
+  for (size_t t = 0; t < m.numTets(); ++t) want[m.materials[t]].push_back(m.tets[t]);
+  EXPECT_EQ(got, want);
+}
+
+TEST(MeshIOGmsh, ReadingIsRefused) {
+  TempDir dir;
+  writeMesh(dir.file("c.msh"), cubeMesh());
+  EXPECT_THROW_MSG(readMesh(dir.file("c.msh")), InputError, "c.msh", "not supported", ".vtu");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Refused writes
+// ---------------------------------------------------------------------------------------------
+
+TEST(MeshIOWrite, MissingFolderLeavesNothing) {
+  TempDir dir;
+  const TetMesh m = cubeMesh();
+  for (const char* name : {"m.vtu", "m.vtk", "m.msh", "m.node", "m.ele"}) {
+    SCOPED_TRACE(name);
+    const std::string path = (dir.path() / "no_such_folder" / name).string();
+    EXPECT_THROW_MSG(writeMesh(path, m), InputError, "no_such_folder");
+    EXPECT_FALSE(fs::exists(dir.path() / "no_such_folder"));
+  }
+  EXPECT_TRUE(dirEntries(dir.path()).empty());
+}
+
+TEST(MeshIOWrite, InvalidMeshRefusedBeforeWriting) {
+  TempDir dir;
+  TetMesh badMaterials = cubeMesh();
+  badMaterials.materials.pop_back();
+  TetMesh badIndex = cubeMesh();
+  badIndex.tets[2][3] = 8;
+  TetMesh badField = cubeMesh();
+  badField.pointFields["displacement"].values.pop_back();
+  TetMesh badPoint = cubeMesh();
+  badPoint.points[1][2] = std::nan("");
+  for (const char* name : {"m.vtu", "m.vtk", "m.msh", "m.node"}) {
+    SCOPED_TRACE(name);
+    const std::string path = dir.file(name);
+    EXPECT_THROW_MSG(writeMesh(path, badMaterials), InputError, path.c_str(), "material labels");
+    EXPECT_THROW_MSG(writeMesh(path, badIndex), InputError, path.c_str(), "tet 2", "vertex 8");
+    EXPECT_THROW_MSG(writeMesh(path, badField), InputError, path.c_str(), "displacement");
+    EXPECT_THROW_MSG(writeMesh(path, badPoint), InputError, path.c_str(), "vertex 1");
+  }
+  EXPECT_TRUE(dirEntries(dir.path()).empty());
+}
+
+TEST(MeshIOWrite, FailedWriteKeepsOldFile) {
+  TempDir dir;
+  const TetMesh good = cubeMesh();
+  writeMesh(dir.file("keep.vtu"), good);
+  TetMesh bad = good;
+  bad.tets[0][0] = -1;
+  EXPECT_THROW(writeMesh(dir.file("keep.vtu"), bad), InputError);
+  expectSameGeometry(good, readMesh(dir.file("keep.vtu")));
+  EXPECT_EQ(dirEntries(dir.path()), std::vector<std::string>{"keep.vtu"});
+}
+
+} // namespace
+} // namespace tetflow

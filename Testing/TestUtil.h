@@ -1,0 +1,54 @@
+#pragma once
+// Shared test helpers: a fresh temporary folder per test, removed afterwards, and small utilities.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+namespace tetflow::test {
+
+// A unique empty folder for one test; removed (with its contents) when the object dies.
+class TempDir {
+public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = info ? std::string(info->test_suite_name()) + "_" + info->name() : "t";
+    for (char& c : name)
+      if (c == '/') c = '_';
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("tetflow_" + name + "_" + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  const std::filesystem::path& path() const { return path_; }
+
+private:
+  std::filesystem::path path_;
+};
+
+inline void writeBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Expect `stmt` to throw ExceptionType whose what() contains every given fragment.
+#define EXPECT_THROW_MSG(stmt, ExceptionType, ...)                                  \
+  do {                                                                              \
+    try {                                                                           \
+      stmt;                                                                         \
+      ADD_FAILURE() << "expected " #ExceptionType " from: " #stmt;                  \
+    } catch (const ExceptionType& e_) {                                             \
+      for (const std::string& frag_ : std::initializer_list<std::string>{__VA_ARGS__})                                 \
+        EXPECT_NE(std::string(e_.what()).find(frag_), std::string::npos)            \
+            << "message '" << e_.what() << "' lacks '" << frag_ << "'";             \
+    }                                                                               \
+  } while (0)
+
+} // namespace tetflow::test

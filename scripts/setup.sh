@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# TetFlow set-up: install missing Debian packages (only when absent), configure and build in
+# Release with all cores. Quick when nothing changed: dpkg check + an incremental build.
+#
+#   scripts/setup.sh            install + build
+#   scripts/setup.sh --run      ... then run the main job on the bundled default input
+#   scripts/setup.sh --test     ... then run the whole test suite (CTest)
+#
+# Environment: BUILD_DIR (default: build), TETFLOW_JOBS (default: nproc).
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$here"
+BUILD_DIR=${BUILD_DIR:-build}
+JOBS=${TETFLOW_JOBS:-$(nproc)}
+
+packages=(
+  build-essential cmake pkg-config
+  qt6-base-dev libqt6opengl6-dev
+  libvtk9-dev libeigen3-dev libboost-dev libboost-program-options-dev
+  libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev
+  xvfb xauth libgl1-mesa-dri fonts-dejavu-core
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing missing Debian packages: ${missing[*]}"
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -qq
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+else
+  echo "setup: all Debian packages present"
+fi
+
+if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
+  cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release
+fi
+cmake --build "$BUILD_DIR" -j "$JOBS"
+
+case "${1:-}" in
+  --run)
+    shift
+    exec "$here/scripts/main-job.sh" "$BUILD_DIR" "$@"
+    ;;
+  --test)
+    shift
+    cd "$BUILD_DIR"
+    exec ctest --output-on-failure -j "$JOBS" "$@"
+    ;;
+  "") ;;
+  *) echo "setup: unknown option '$1' (use --run or --test)" >&2; exit 2 ;;
+esac
