@@ -107,6 +107,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
   const std::vector<ModuleNode> nodes = netIn.modules();
   const std::vector<Connection> conns = netIn.connections();
   const std::string baseDir = netIn.baseDir();
+  const std::string outputDir = netIn.outputDir();
   std::map<std::string, const ModuleNode*> byId;
   for (const auto& n : nodes) byId[n.id] = &n;
   for (const auto& id : opt.only) netIn.requireModule(id);
@@ -251,7 +252,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
     const auto m0 = std::chrono::steady_clock::now();
     ModuleStatus final = ModuleStatus::Done;
     std::string err, kind;
-    ExecutionContext ctx(*node.info, id, node.params, inputs, baseDir, progress);
+    ExecutionContext ctx(*node.info, id, node.params, inputs, baseDir, progress, outputDir);
     try {
       // Required inputs first: a clear message instead of a module-specific failure.
       for (size_t p = 0; p < node.info->inputs.size(); ++p)

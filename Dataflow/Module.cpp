@@ -36,10 +36,10 @@ int ModuleInfo::outputIndex(const std::string& s) const { return portIndex(outpu
 
 ExecutionContext::ExecutionContext(const ModuleInfo& info, std::string moduleId, ParamValues params,
                                    std::vector<DataPtr> inputs, std::string baseDir,
-                                   Progress& progress)
+                                   Progress& progress, std::string outputDir)
     : info_(info), moduleId_(std::move(moduleId)), params_(std::move(params)),
       inputs_(std::move(inputs)), outputs_(info.outputs.size()), baseDir_(std::move(baseDir)),
-      progress_(progress) {}
+      outputDir_(std::move(outputDir)), progress_(progress) {}
 
 const ParamValue& ExecutionContext::value(const std::string& name) const {
   auto it = params_.find(name);
@@ -58,18 +58,20 @@ const std::vector<std::string>& ExecutionContext::getList(const std::string& n) 
   return std::get<std::vector<std::string>>(value(n));
 }
 
-std::string ExecutionContext::resolvePath(const std::string& path) const {
+std::string ExecutionContext::resolvePath(const std::string& path, bool output) const {
   if (path.empty()) return path;
   std::filesystem::path p(path);
-  if (p.is_absolute() || baseDir_.empty()) return path;
-  return (std::filesystem::path(baseDir_) / p).lexically_normal().string();
+  const std::string& base = output && !outputDir_.empty() ? outputDir_ : baseDir_;
+  if (p.is_absolute() || base.empty()) return path;
+  return (std::filesystem::path(base) / p).lexically_normal().string();
 }
 
 std::string ExecutionContext::getPath(const std::string& n) const {
   const std::string& p = getString(n);
   if (p.empty())
     throw InputError(moduleId_ + ": parameter '" + n + "' is empty; give a file name");
-  return resolvePath(p);
+  const ParamSpec* spec = info_.param(n);
+  return resolvePath(p, spec && spec->isOutputPath);
 }
 
 const DataPtr& ExecutionContext::input(size_t port) const {

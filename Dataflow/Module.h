@@ -57,7 +57,8 @@ using ParamValues = std::map<std::string, ParamValue>;
 class ExecutionContext {
 public:
   ExecutionContext(const ModuleInfo& info, std::string moduleId, ParamValues params,
-                   std::vector<DataPtr> inputs, std::string baseDir, Progress& progress);
+                   std::vector<DataPtr> inputs, std::string baseDir, Progress& progress,
+                   std::string outputDir = "");
 
   const std::string& moduleId() const { return moduleId_; }
   Progress& progress() { return progress_; }
@@ -69,9 +70,10 @@ public:
   double getDouble(const std::string& name) const;
   const std::string& getString(const std::string& name) const; // String and Enum
   const std::vector<std::string>& getList(const std::string& name) const;
-  // A path parameter resolved against the network file's folder (absolute paths unchanged).
+  // A path parameter resolved against the network file's folder (absolute paths unchanged);
+  // output-path parameters resolve against the output folder when one is set.
   std::string getPath(const std::string& name) const;
-  std::string resolvePath(const std::string& path) const;
+  std::string resolvePath(const std::string& path, bool output = false) const;
 
   bool hasInput(size_t port) const { return port < inputs_.size() && inputs_[port] != nullptr; }
   const DataPtr& input(size_t port) const;
@@ -97,6 +99,7 @@ private:
   std::vector<DataPtr> inputs_;
   std::vector<DataPtr> outputs_;
   std::string baseDir_;
+  std::string outputDir_;
   Progress& progress_;
   Report report_;
   std::vector<std::string> messages_;

@@ -97,6 +97,10 @@ public:
   // Folder that relative file names resolve against (the .srn file's folder).
   const std::string& baseDir() const { return baseDir_; }
   void setBaseDir(const std::string& d) { baseDir_ = d; }
+  // When set, relative *output* file names resolve against this folder instead (headless
+  // `--output-dir`); input files still resolve against baseDir.
+  const std::string& outputDir() const { return outputDir_; }
+  void setOutputDir(const std::string& d) { outputDir_ = d; }
 
 private:
   ModuleNode* findModule(const std::string& id);
@@ -109,6 +113,7 @@ private:
   std::map<int, Listener> listeners_;
   int nextListener_ = 1;
   std::string baseDir_;
+  std::string outputDir_;
   std::string note_;
 };
 

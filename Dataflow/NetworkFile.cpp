@@ -21,6 +21,11 @@ std::string formatProblems(const std::string& file, const std::vector<LoadProble
     if (!p.moduleId.empty()) m << "module " << p.moduleId << ": ";
     m << p.message;
   }
+  for (const auto& p : ps)
+    if (p.message.rfind("unknown module", 0) == 0) {
+      m << "\n  (`tetflow list-modules` lists the modules TetFlow has)";
+      break;
+    }
   return m.str();
 }
 
@@ -94,8 +99,7 @@ Network loadNetworkFromString(const std::string& xml, const std::string& name,
       if (!info) {
         const XmlAttribute* pkg = el.attribute("package");
         problem(el.line, id, "unknown module '" + nameA->value + "'" +
-                                 (pkg ? " (package " + pkg->value + ")" : std::string()) +
-                                 "; `tetflow list-modules` shows the modules TetFlow has");
+                                 (pkg ? " (package " + pkg->value + ")" : std::string()));
         continue;
       }
       double x = 0, y = 0;
@@ -205,9 +209,8 @@ Network loadNetworkFromString(const std::string& xml, const std::string& name,
 
 Network loadNetwork(const std::string& path, const ModuleRegistry& registry) {
   const std::vector<char> bytes = readFileBytes(path);
-  std::filesystem::path p(path);
-  std::string base = p.parent_path().string();
-  if (base.empty()) base = ".";
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  const std::string base = dir.empty() ? std::string(".") : dir.string();
   return loadNetworkFromString(std::string(bytes.begin(), bytes.end()), path, base, registry);
 }
 

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <mutex>
 #include <string>
@@ -50,6 +51,7 @@ const char* kUsage =
     "options for run:\n"
     "  --set ID.PARAM=VALUE   override a parameter (repeatable), e.g. --set m3.alpha_long=0.25\n"
     "  --report FILE.json     write every module's report, timings and errors as JSON\n"
+    "  --output-dir DIR       write relative output files under DIR (created if missing)\n"
     "  --threads N            worker threads and threads per module (default: all cores)\n"
     "  --quiet                print only errors\n"
     "exit status: 0 success, 1 module failed, 2 bad arguments, 3 network cannot be loaded,\n"
@@ -64,6 +66,7 @@ struct RunArgs {
   std::string net;
   std::vector<std::string> sets;
   std::string report;
+  std::string outputDir;
   int threads = 0;
   bool quiet = false;
 };
@@ -80,6 +83,7 @@ std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArg
       if (s == "--set") r.sets.push_back(value(s));
       else if (s.rfind("--set=", 0) == 0) r.sets.push_back(s.substr(6));
       else if (allowRunOptions && s == "--report") r.report = value(s);
+      else if (allowRunOptions && s == "--output-dir") r.outputDir = value(s);
       else if (allowRunOptions && s == "--threads") {
         const std::string v = value(s);
         size_t used = 0;
@@ -147,6 +151,15 @@ std::string summaryLine(const ModuleNode& m, const ModuleState& s) {
 int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
   std::unique_ptr<Network> net;
   if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
+  if (!args.outputDir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(args.outputDir, ec);
+    if (ec) {
+      std::cerr << "tetflow: --output-dir " << args.outputDir << ": cannot create it (" << ec.message() << ")\n";
+      return kExitUsage;
+    }
+    net->setOutputDir(args.outputDir);
+  }
   // Check the report target before spending time on the run.
   if (!args.report.empty()) {
     try {
@@ -275,10 +288,13 @@ int cmdDescribe(const std::string& name, const ModuleRegistry& reg) {
   ports("inputs", m->inputs);
   ports("outputs", m->outputs);
   std::printf("parameters:%s\n", m->params.empty() ? " none" : "");
-  for (const auto& p : m->params)
-    std::printf("  %-18s = %-14s %s; %s\n", p.name.c_str(),
-                ("'" + formatParam(p, p.defaultValue) + "'").c_str(), describeAllowed(p).c_str(),
+  for (const auto& p : m->params) {
+    std::string def = formatParam(p, p.defaultValue);
+    def.insert(def.begin(), '\'');
+    def.push_back('\'');
+    std::printf("  %-18s = %-14s %s; %s\n", p.name.c_str(), def.c_str(), describeAllowed(p).c_str(),
                 p.description.c_str());
+  }
   return 0;
 }
 

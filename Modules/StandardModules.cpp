@@ -30,12 +30,15 @@ void reportLabelVolume(Report& report, const LabelVolume& v) {
   const auto counts = labelCounts(v);
   report.set("labels", ReportValue(int64_t(counts.size())));
   std::string list;
-  for (const auto& [label, n] : counts) list += (list.empty() ? "" : " ") + std::to_string(label);
+  for (const auto& [label, n] : counts) {
+    if (!list.empty()) list += ' ';
+    list += std::to_string(label);
+  }
   report.set("label_values", list);
   for (const auto& [label, n] : counts) {
-    report.set("label_" + std::to_string(label) + "_voxels", ReportValue(int64_t(n)));
-    report.set("label_" + std::to_string(label) + "_volume_mm3",
-               ReportValue(double(n) * g.voxelVolume()));
+    const std::string key = "label_" + std::to_string(label);
+    report.set(key + "_voxels", ReportValue(int64_t(n)));
+    report.set(key + "_volume_mm3", ReportValue(double(n) * g.voxelVolume()));
   }
 }
 

@@ -1,15 +1,10 @@
 #!/usr/bin/env bash
-# The main job on the bundled default input: the four-layer head phantom, written in every
-# volume format, read back and summarised (dims, spacing, origin, labels, voxel counts).
+# The main job on the bundled default input: run Nets/default.srn headless (the four-layer head
+# phantom and what the network does with it), outputs and the JSON report under out/.
 set -euo pipefail
 build=${1:-build}
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-out="$here/out"
-mkdir -p "$out"
-tool="$here/$build/Interface/tetflow-volume"
-[ -x "$tool" ] || tool="$build/Interface/tetflow-volume"
-"$tool" phantom head "$out/head.nrrd"
-for ext in nii.gz mha inr.gz vti; do
-  "$tool" convert "$out/head.nrrd" "$out/head.$ext"
-done
-"$tool" info "$out/head.nrrd" "$out/head.nii.gz" "$out/head.mha" "$out/head.inr.gz" "$out/head.vti"
+case "$build" in /*) ;; *) build="$here/$build" ;; esac
+mkdir -p "$here/out"
+exec "$build/Interface/tetflow" run "$here/Nets/default.srn" --output-dir "$here/out" \
+  --report "$here/out/default-report.json"

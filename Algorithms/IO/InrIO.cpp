@@ -148,19 +148,32 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
     std::string key(trim(line.substr(0, eq)));
     for (char& c : key) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     Entry e{std::string(trim(line.substr(eq + 1))), lineNo};
-    if (key == "XDIM") xdim = e;
-    else if (key == "YDIM") ydim = e;
-    else if (key == "ZDIM") zdim = e;
-    else if (key == "VDIM") vdim = e;
-    else if (key == "TYPE") type = e;
-    else if (key == "PIXSIZE") pixsize = e;
-    else if (key == "CPU") cpu = e;
-    else if (key == "VX") vx = e;
-    else if (key == "VY") vy = e;
-    else if (key == "VZ") vz = e;
-    else if (key == "TX") tx = e;
-    else if (key == "TY") ty = e;
-    else if (key == "TZ") tz = e;
+    if (key == "XDIM")
+      xdim = e;
+    else if (key == "YDIM")
+      ydim = e;
+    else if (key == "ZDIM")
+      zdim = e;
+    else if (key == "VDIM")
+      vdim = e;
+    else if (key == "TYPE")
+      type = e;
+    else if (key == "PIXSIZE")
+      pixsize = e;
+    else if (key == "CPU")
+      cpu = e;
+    else if (key == "VX")
+      vx = e;
+    else if (key == "VY")
+      vy = e;
+    else if (key == "VZ")
+      vz = e;
+    else if (key == "TX")
+      tx = e;
+    else if (key == "TY")
+      ty = e;
+    else if (key == "TZ")
+      tz = e;
     // SCALE and anything else: not needed.
   }
 
@@ -175,7 +188,8 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
       failLine(e->line, std::string(name) + " " + shown(e->value) + " must be a whole number >= 1");
     return v;
   };
-  info.grid.dims = {dimOf(xdim, "XDIM", true), dimOf(ydim, "YDIM", true), dimOf(zdim, "ZDIM", false)};
+  info.grid.dims = {dimOf(xdim, "XDIM", true), dimOf(ydim, "YDIM", true),
+                    dimOf(zdim, "ZDIM", false)};
   const int64_t v = dimOf(vdim, "VDIM", false);
   if (v != 1)
     failLine(vdim->line, "VDIM=" + std::to_string(v) +
@@ -192,15 +206,18 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
   int64_t bits = 0;
   {
     const size_t sp = ps.find(' ');
-    if (sp == std::string::npos || ps.substr(sp + 1) != "bits" || !parseInt64(ps.substr(0, sp), bits))
+    if (sp == std::string::npos || ps.substr(sp + 1) != "bits" ||
+        !parseInt64(ps.substr(0, sp), bits))
       failLine(pixsize->line, "PIXSIZE " + shown(pixsize->value) + " is not like '8 bits'");
   }
   if (t == "float") {
-    if (bits == 32) info.type = VoxelType::Float32;
-    else if (bits == 64) info.type = VoxelType::Float64;
+    if (bits == 32)
+      info.type = VoxelType::Float32;
+    else if (bits == 64)
+      info.type = VoxelType::Float64;
     else
-      failLine(pixsize->line, "PIXSIZE " + shown(pixsize->value) +
-                                  " does not match TYPE float (32 or 64 bits)");
+      failLine(pixsize->line,
+               "PIXSIZE " + shown(pixsize->value) + " does not match TYPE float (32 or 64 bits)");
   } else {
     const bool sgn = t == "signed fixed";
     switch (bits) {
@@ -216,8 +233,10 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
 
   if (cpu) {
     const std::string c = lowerCollapsed(cpu->value);
-    if (c == "decm" || c == "alpha" || c == "pc") info.bigEndian = false;
-    else if (c == "sun" || c == "sgi") info.bigEndian = true;
+    if (c == "decm" || c == "alpha" || c == "pc")
+      info.bigEndian = false;
+    else if (c == "sun" || c == "sgi")
+      info.bigEndian = true;
     else
       failLine(cpu->line, "unknown CPU " + shown(cpu->value) +
                               " (decm, alpha, pc = little endian; sun, sgi = big endian)");
@@ -229,12 +248,14 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
     if (!parseDouble(e->value, x) || !std::isfinite(x))
       failLine(e->line, std::string(name) + " " + shown(e->value) + " is not a number");
     if (positive && !(x > 0))
-      failLine(e->line, std::string(name) + "=" + e->value +
-                            ": the voxel size must be a positive number");
+      failLine(e->line,
+               std::string(name) + "=" + e->value + ": the voxel size must be a positive number");
     return x;
   };
-  info.grid.spacing = {real(vx, "VX", 1.0, true), real(vy, "VY", 1.0, true), real(vz, "VZ", 1.0, true)};
-  info.grid.origin = {real(tx, "TX", 0.0, false), real(ty, "TY", 0.0, false), real(tz, "TZ", 0.0, false)};
+  info.grid.spacing = {real(vx, "VX", 1.0, true), real(vy, "VY", 1.0, true),
+                       real(vz, "VZ", 1.0, true)};
+  info.grid.origin = {real(tx, "TX", 0.0, false), real(ty, "TY", 0.0, false),
+                      real(tz, "TZ", 0.0, false)};
 
   const auto& d = info.grid.dims;
   int64_t count = 0, bytes = 0;
@@ -262,11 +283,16 @@ std::string inflatePrefix(const std::vector<char>& packed, size_t want, const st
 
 const char* inrType(VoxelType t) {
   switch (t) {
-    case VoxelType::Int8: case VoxelType::Int16: case VoxelType::Int32: case VoxelType::Int64:
-      return "signed fixed";
-    case VoxelType::UInt8: case VoxelType::UInt16: case VoxelType::UInt32: case VoxelType::UInt64:
-      return "unsigned fixed";
-    case VoxelType::Float32: case VoxelType::Float64: return "float";
+    case VoxelType::Int8:
+    case VoxelType::Int16:
+    case VoxelType::Int32:
+    case VoxelType::Int64: return "signed fixed";
+    case VoxelType::UInt8:
+    case VoxelType::UInt16:
+    case VoxelType::UInt32:
+    case VoxelType::UInt64: return "unsigned fixed";
+    case VoxelType::Float32:
+    case VoxelType::Float64: return "float";
   }
   return "?";
 }
@@ -371,8 +397,8 @@ RawVolume readInr(const std::string& path) {
   raw.bytes.resize(static_cast<size_t>(info.byteCount));
   in.clear();
   in.seekg(static_cast<std::streamoff>(hlen), std::ios::beg);
-  if (info.byteCount > 0 &&
-      !in.read(reinterpret_cast<char*>(raw.bytes.data()), static_cast<std::streamsize>(info.byteCount)))
+  if (info.byteCount > 0 && !in.read(reinterpret_cast<char*>(raw.bytes.data()),
+                                     static_cast<std::streamsize>(info.byteCount)))
     throw InputError(path + ": read error (the file changed while reading or an I/O error)");
   if (voxelTypeSize(info.type) > 1 && info.bigEndian == hostIsLittleEndian())
     byteSwapInPlace(raw.bytes.data(), static_cast<size_t>(info.count), voxelTypeSize(info.type));

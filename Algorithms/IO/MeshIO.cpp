@@ -10,8 +10,9 @@
 //             above the counter-clockwise triangle (a,b,c) -- the TetFlow orientation -- and
 //             writes .ele corners in that stored order. Evidence: tetgenmesh::reconstructmesh()
 //             (tetgen.cxx, 1.5) swaps the first two corners of any input tet with
-//             orient3d(...) > 0; and the Debian libtet 1.5 library, run on random points, emits
-//             only tets with positive TetFlow volume. So the mapping is the identity.
+//             orient3d(...) > 0; and the Debian libtet 1.5 library, run on random points
+//             (Delaunay) and on a box PLC (-pq), emits only tets with positive TetFlow volume.
+//             So the mapping is the identity.
 // Every reader finally re-orients tets stored with negative volume by swapping their first two
 // corners (what TetGen's own reader does), so files from tools with the opposite habit still give
 // a valid TetMesh.
@@ -396,12 +397,10 @@ TetMesh gridToMesh(vtkUnstructuredGrid* g, const std::string& path) {
 
 void checkVtkWritable(const std::string& path, const TetMesh& m) {
   auto check = [&](const std::map<std::string, Field>& fields, const char* kind) {
-    for (const auto& [name, f] : fields) {
-      (void)f;
-      if (name.empty())
+    for (const auto& entry : fields)
+      if (entry.first.empty())
         throw InputError(path + ": a " + std::string(kind) +
                          " field has an empty name; VTK files need array names");
-    }
   };
   check(m.pointFields, "point");
   check(m.cellFields, "cell");
@@ -424,7 +423,9 @@ void runVtkWriter(Writer* w, const std::string& path, vtkUnstructuredGrid* grid)
   try {
     ok = w->Write();
   } catch (const std::bad_alloc&) {
-    throw InputError(path + ": out of memory while writing");
+    throw InputError(path + ": out of memory while writing; nothing was written");
+  } catch (const std::exception& e) {
+    throw InputError(path + ": cannot write: " + e.what() + "; nothing was written");
   }
   if (!ok || !msgs->errors.empty() || w->GetErrorCode() != vtkErrorCode::NoError)
     throw InputError(path + ": cannot write: " + vtkFailureText(*msgs, w->GetErrorCode()) +
@@ -458,11 +459,15 @@ TetMesh runVtkReader(Reader* r, VtkMessageCollector* msgs, const std::string& pa
                      const char* what) {
   msgs->watch(r->GetExecutive());
   r->SetFileName(path.c_str());
+  // VTK does not throw by design, but damaged sizes make its containers throw (std::bad_alloc,
+  // std::length_error from a corrupt compression header): report those as damaged input too.
   try {
     r->Update();
   } catch (const std::bad_alloc&) {
     throw InputError(path + ": the file announces more data than can be allocated "
                             "(damaged file?)");
+  } catch (const std::exception& e) {
+    throw InputError(path + ": cannot read " + what + " (damaged file?): " + e.what());
   }
   if (!msgs->errors.empty() || r->GetErrorCode() != vtkErrorCode::NoError)
     throw InputError(path + ": cannot read " + what + " (damaged or truncated file?): " +
@@ -484,61 +489,193 @@ TetMesh readVtu(const std::string& path) {
   return runVtkReader(r.Get(), msgs, path, "the VTK XML unstructured grid");
 }
 
-// vtkUnstructuredGridReader trusts "CELL_TYPES n" to match "CELLS": a smaller n makes it read
-// past its cell type buffer. Find both header lines (stopping once both are seen) and refuse a
-// mismatch before VTK reads the file. Keywords in another case are left to VTK.
-void checkLegacyCellCounts(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open for reading");
-  std::string head;
-  std::getline(in, head);
-  int major = 0;
-  const std::string tag = "Version ";
-  const auto vpos = head.find(tag);
-  if (vpos != std::string::npos) major = std::atoi(head.c_str() + vpos + tag.size());
-  in.seekg(0);
-  constexpr size_t kChunk = 1 << 22, kOverlap = 64;
-  std::string window;
-  std::vector<char> chunk(kChunk);
-  long long cells = -1, types = -1;
-  auto scan = [&](const char* key, long long& value, int fields) {
-    if (value >= 0) return;
-    const auto k = window.find(key);
-    if (k == std::string::npos) return;
-    const char* b = window.data() + k + std::strlen(key);
-    const char* e = window.data() + window.size();
-    long long v[2] = {-1, -1};
-    for (int f = 0; f < fields; ++f) {
-      while (b < e && *b == ' ') ++b;
-      auto r = std::from_chars(b, e, v[f]);
-      // A number running into the window end may be incomplete: look again next round.
-      if (r.ec != std::errc() || r.ptr == e) return;
-      b = r.ptr;
+// vtkUnstructuredGridReader (VTK 9.1) trusts the sizes a legacy file announces: a damaged
+// "CELLS n size" block of the 4.x layout ("npts id id ..." per cell) makes
+// vtkCellArray::AppendLegacyFormat run off its buffer (segfault), "CELL_TYPES n" smaller than the
+// cell count makes it read past the type buffer, and absurd counts make it allocate wildly.
+// So before VTK sees the file we find the POINTS / CELLS / CELL_TYPES lines (first upper-case
+// occurrence each; streamed, stopping once all are seen), compare the counts with each other and
+// with the file size, and walk a 4.x CELLS block with bounds checks. Anything not found or in
+// another layout is left to VTK.
+class LegacyPrecheck {
+public:
+  explicit LegacyPrecheck(const std::string& path) : path_(path) {
+    std::error_code ec;
+    fileSize_ = static_cast<uint64_t>(fs::file_size(path, ec));
+    if (ec) throw InputError(path + ": cannot determine the file size");
+  }
+
+  void run() {
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) throw InputError(path_ + ": cannot open for reading");
+    std::string l1, l2, l3;
+    std::getline(in, l1);
+    std::getline(in, l2);
+    std::getline(in, l3);
+    const std::string tag = "Version ";
+    const auto vpos = l1.find(tag);
+    if (vpos != std::string::npos) major_ = std::atoi(l1.c_str() + vpos + tag.size());
+    for (char& c : l3) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    binary_ = l3.rfind("BINARY", 0) == 0;
+    findLines(in);
+
+    if (points_.found && points_.tokens.size() >= 3) {
+      const int64_t n = count(points_, 1);
+      // ASCII values need at least one byte each (a bound against absurd counts only).
+      const uint64_t each = binary_ ? typeSize(points_.tokens[2]) : 1;
+      if (each) requireFits(points_, static_cast<uint64_t>(n) * 3, each, "POINTS");
     }
-    value = v[0];
+    int64_t nCells = -1;
+    if (cells_.found && cells_.tokens.size() >= 3) {
+      const int64_t a = count(cells_, 1), b = count(cells_, 2);
+      if (major_ >= 5) {
+        if (a < 1) fail(cells_, "announces no cell offsets");
+        requireFits(cells_, static_cast<uint64_t>(a) + static_cast<uint64_t>(b), binary_ ? 4 : 1,
+                    "CELLS");
+        nCells = a - 1;
+      } else {
+        requireFits(cells_, static_cast<uint64_t>(b), binary_ ? 4 : 1, "CELLS");
+        walkLegacyCells(a, b);
+        nCells = a;
+      }
+    }
+    if (types_.found && types_.tokens.size() >= 2) {
+      const int64_t n = count(types_, 1);
+      requireFits(types_, static_cast<uint64_t>(n), binary_ ? 4 : 1, "CELL_TYPES");
+      if (nCells >= 0 && n != nCells) {
+        std::ostringstream m;
+        m << path_ << ": CELLS announces " << nCells << " cells but CELL_TYPES " << n
+          << " types (damaged file?)";
+        throw InputError(m.str());
+      }
+    }
+  }
+
+private:
+  struct Line {
+    bool found = false;
+    uint64_t dataStart = 0; // offset just past the line's '\n'
+    std::vector<std::string> tokens;
   };
-  while (in && (cells < 0 || types < 0)) {
-    in.read(chunk.data(), static_cast<std::streamsize>(kChunk));
-    const size_t got = static_cast<size_t>(in.gcount());
-    if (got == 0) break;
-    window.append(chunk.data(), got);
-    scan("\nCELLS ", cells, 2);
-    scan("\nCELL_TYPES ", types, 1);
-    if (window.size() > kOverlap) window.erase(0, window.size() - kOverlap);
+
+  void findLines(std::ifstream& in) {
+    in.clear();
+    in.seekg(0);
+    constexpr size_t kChunk = 1 << 22, kKeep = 512;
+    std::vector<char> chunk(kChunk);
+    std::string window;
+    uint64_t windowStart = 0;
+    auto look = [&](const char* key, Line& line) {
+      if (line.found) return;
+      const auto k = window.find(key);
+      if (k == std::string::npos) return;
+      const auto eol = window.find('\n', k + 1);
+      if (eol == std::string::npos) return; // line incomplete: next round
+      std::istringstream ls(window.substr(k + 1, eol - k - 1));
+      for (std::string t; ls >> t;) line.tokens.push_back(t);
+      line.dataStart = windowStart + eol + 1;
+      line.found = true;
+    };
+    while (!(points_.found && cells_.found && types_.found)) {
+      in.read(chunk.data(), static_cast<std::streamsize>(kChunk));
+      const size_t got = static_cast<size_t>(in.gcount());
+      if (got == 0) break;
+      window.append(chunk.data(), got);
+      look("\nPOINTS ", points_);
+      look("\nCELLS ", cells_);
+      look("\nCELL_TYPES ", types_);
+      if (window.size() > kKeep) {
+        const size_t drop = window.size() - kKeep;
+        window.erase(0, drop);
+        windowStart += drop;
+      }
+    }
   }
-  if (cells < 0 || types < 0) return;
-  const long long nCells = major >= 5 ? cells - 1 : cells; // 5.x counts offsets (cells + 1)
-  if (nCells != types) {
-    std::ostringstream m;
-    m << path << ": CELLS announces " << nCells << " cells but CELL_TYPES " << types
-      << " types (damaged file?)";
-    throw InputError(m.str());
+
+  [[noreturn]] void fail(const Line& l, const std::string& problem) const {
+    std::string text;
+    for (const auto& t : l.tokens) text += (text.empty() ? "" : " ") + t;
+    throw InputError(path_ + ": '" + text + "' " + problem + " (damaged or truncated file?)");
   }
-}
+
+  int64_t count(const Line& l, size_t k) const {
+    int64_t v = -1;
+    const std::string& t = l.tokens[k];
+    auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (r.ec != std::errc() || r.ptr != t.data() + t.size() || v < 0)
+      fail(l, "has an invalid count");
+    return v;
+  }
+
+  // `values` entries of at least `each` bytes must fit between the line and the end of the file.
+  void requireFits(const Line& l, uint64_t values, uint64_t each, const char* what) const {
+    const uint64_t avail = fileSize_ > l.dataStart ? fileSize_ - l.dataStart : 0;
+    if (values > avail / each)
+      fail(l, std::string("announces more ") + what + " data than the rest of the file holds");
+  }
+
+  static uint64_t typeSize(const std::string& type) {
+    std::string t = type;
+    for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (t == "float" || t == "int" || t == "unsigned_int") return 4;
+    if (t == "double" || t == "vtktypeint64" || t == "vtktypeuint64") return 8;
+    if (t == "short" || t == "unsigned_short") return 2;
+    if (t == "char" || t == "unsigned_char" || t == "signed_char") return 1;
+    return 0; // other types: left to VTK
+  }
+
+  // 4.x layout: `size` ints forming exactly `n` records "npts id_1 .. id_npts".
+  void walkLegacyCells(int64_t n, int64_t size) {
+    std::ifstream in(path_, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(cells_.dataStart));
+    int64_t pos = 0, cell = 0;
+    auto bad = [&](const std::string& why) {
+      std::ostringstream m;
+      m << "is inconsistent at cell " << cell << ": " << why;
+      fail(cells_, m.str());
+    };
+    std::vector<unsigned char> buf;
+    size_t bufPos = 0;
+    auto next = [&]() -> int64_t {
+      if (binary_) {
+        if (bufPos + 4 > buf.size()) {
+          const size_t left = static_cast<size_t>(std::min<int64_t>(size - pos, 1 << 20)) * 4;
+          buf.resize(left);
+          in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(left));
+          if (static_cast<size_t>(in.gcount()) != left) bad("the file ends inside the block");
+          bufPos = 0;
+        }
+        const unsigned char* p = buf.data() + bufPos;
+        bufPos += 4;
+        const uint32_t u = (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) |
+                           (uint32_t(p[2]) << 8) | uint32_t(p[3]);
+        ++pos;
+        return static_cast<int32_t>(u);
+      }
+      long long v = 0;
+      if (!(in >> v)) bad("expected an integer");
+      ++pos;
+      return v;
+    };
+    for (; cell < n; ++cell) {
+      if (pos >= size) bad("the block ends before the announced cells");
+      const int64_t npts = next();
+      if (npts < 0 || npts > size - pos) bad("point count " + std::to_string(npts));
+      for (int64_t k = 0; k < npts; ++k) next();
+    }
+    if (pos != size) bad("the block holds more values than the announced cells use");
+  }
+
+  std::string path_;
+  uint64_t fileSize_ = 0;
+  int major_ = 0;
+  bool binary_ = false;
+  Line points_, cells_, types_;
+};
 
 TetMesh readVtkLegacy(const std::string& path) {
   requireExistingFile(path);
-  checkLegacyCellCounts(path);
+  LegacyPrecheck(path).run();
   vtkNew<vtkUnstructuredGridReader> r;
   vtkNew<VtkMessageCollector> msgs;
   VtkLogCapture capture(msgs->errors);
@@ -580,7 +717,7 @@ void writeGmsh(const std::string& path, const TetMesh& m) {
   for (auto& [label, tets] : byLabel) {
     Group g;
     g.label = label;
-    g.physTag = label >= 1 ? label : label; (void)nextTag;
+    g.physTag = label >= 1 ? label : nextTag++;
     if (g.physTag > std::numeric_limits<int32_t>::max())
       throw InputError(path + ": cannot assign a Gmsh physical tag to material " +
                        std::to_string(label) + " (labels too large)");
@@ -667,15 +804,14 @@ void writeGmsh(const std::string& path, const TetMesh& m) {
       s.num(nt) << ' ';
       s.num(nt > 0 ? 1 : 0) << ' ';
       s.num(nt) << '\n';
-      int64_t tag = 0;
+      int64_t tag = 1;
       for (const Group& g : groups) {
         s << "3 ";
         s.num(g.entityTag) << " 4 ";
         s.num(static_cast<int64_t>(g.tets.size())) << '\n';
         for (size_t t : g.tets) {
           s.num(tag++);
-          TetMesh::Tet q = m.tets[t]; std::swap(q[0], q[1]);
-          for (int32_t v : q) {
+          for (int32_t v : m.tets[t]) {
             s << ' ';
             s.num(static_cast<int64_t>(v) + 1);
           }
@@ -910,8 +1046,7 @@ void writeTetGen(const std::string& path, const TetMesh& m) {
     s.num(static_cast<int64_t>(m.numTets())) << "  4  1\n";
     for (size_t t = 0; t < m.numTets(); ++t) {
       s.num(static_cast<int64_t>(t) + 1);
-      TetMesh::Tet q = m.tets[t]; std::swap(q[0], q[1]);
-      for (int32_t v : q) {
+      for (int32_t v : m.tets[t]) {
         s << ' ';
         s.num(static_cast<int64_t>(v) + 1);
       }

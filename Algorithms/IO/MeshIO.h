@@ -9,6 +9,30 @@
 //               single region attribute of each tet
 // Readers exist for .vtu, .vtk and TetGen (.node/.ele), so meshes can be read back.
 // All writers are atomic (temp file + rename; for TetGen both files or none).
+//
+// Contracts (details in MeshIO.cpp):
+//  - writeMesh refuses (InputError naming `path`, nothing written) a mesh failing
+//    validateStructure, an unknown extension (message lists the supported ones) and a missing
+//    or unwritable folder. For .vtu/.vtk a cell field may not be called "material" and field
+//    names may not be empty. Tets are written in their stored vertex order.
+//  - .vtu: appended raw binary, zlib-compressed; .vtk: binary, legacy 4.2 layout. Points are
+//    double, material is vtkIntArray "material", fields are vtkDoubleArray with their
+//    components. Fields round-trip exactly through .vtu and .vtk.
+//  - .msh and TetGen store geometry and materials only: fields are NOT written. .msh groups the
+//    tets by material (ascending label; stored order within a material), element tags 1..n in
+//    that order, node tags = vertex index + 1.
+//  - TetGen: "<stem>.node" + "<stem>.ele" for a path ending in .node or .ele (any case), or
+//    path + ".node"/".ele" when the format is given explicitly for another name. Coordinates with
+//    17 significant digits. TetGen's corner order (orient3d(a,b,c,d) < 0, d above the
+//    counter-clockwise a,b,c) is TetFlow's positive orientation, so corners are written as stored.
+//  - readMesh: InputError naming the file (and line for TetGen) for a missing, damaged,
+//    truncated or unsupported file (e.g. a non-tetrahedral VTK cell, 10-node TetGen tets);
+//    reading .msh is not supported. VTK: a missing "material" array gives material 0, other
+//    numeric point/cell arrays become fields (as double; non-numeric arrays are skipped).
+//    TetGen: node numbering may start at 0 or 1; comments, node attributes and boundary markers
+//    are skipped; the first tet attribute (region) is the material, else 0.
+//  - Every reader returns positively oriented tets: a tet stored with negative volume gets its
+//    first two vertices swapped (as TetGen does when it reads a mesh); degenerate tets are kept.
 #include <string>
 
 #include "../Core/TetMesh.h"

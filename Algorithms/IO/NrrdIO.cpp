@@ -12,10 +12,11 @@
 //   3. the data are read straight into the RawVolume buffer (raw), inflated (gzip) or parsed
 //      (ascii), then brought into host byte order.
 //
-// Coordinates: positions are taken in the file's own space. A header saying "space:
-// left-posterior-superior" (or RAS, or scanner-xyz, ...) is kept as given; no axis is flipped to
-// convert between anatomical conventions. Readers of other formats do the same, so volumes from
-// the same source stay aligned with each other.
+// Coordinates: TetFlow's physical frame is LPS (as in ITK, DICOM, MetaImage; see VtkVolumeIO.h).
+// A header in "left-posterior-superior" (or scanner-xyz, 3D-right-handed, or no space at all) is
+// taken as given; "right-anterior-superior" negates x and y, "left-anterior-superior" negates y,
+// so that one segmentation saved as NRRD in RAS and as NIfTI reads with the same geometry.
+// The writer always writes "space: left-posterior-superior".
 #include "NrrdIO.h"
 
 #include <algorithm>
@@ -171,8 +172,7 @@ struct Header {
   }
   const Field& require(const std::string& name, const std::string& why = "") const {
     const Field* f = find(name);
-    if (!f)
-      fail("missing required field '" + name + "'" + (why.empty() ? "" : " (" + why + ")"));
+    if (!f) fail("missing required field '" + name + "'" + (why.empty() ? "" : " (" + why + ")"));
     return *f;
   }
 };
@@ -182,8 +182,7 @@ void openOrFail(std::ifstream& in, const std::string& path, const std::string& w
   if (!fs::exists(path, ec)) throw InputError(what + ": file not found");
   if (fs::is_directory(path, ec)) throw InputError(what + ": is a folder, not a file");
   in.open(path, std::ios::binary);
-  if (!in)
-    throw InputError(what + ": cannot open for reading (" + std::strerror(errno) + ")");
+  if (!in) throw InputError(what + ": cannot open for reading (" + std::strerror(errno) + ")");
 }
 
 int64_t fileSizeOrFail(const std::string& path, const std::string& what) {
@@ -206,8 +205,8 @@ void processLine(Header& h, std::string_view line, int lineNo) {
     if (magic.size() != 8 || magic.substr(0, 4) != "NRRD")
       h.fail("not a NRRD file: the first line must be a magic 'NRRD0001' ... 'NRRD0005'");
     if (magic.substr(4, 3) != "000" || magic[7] < '1' || magic[7] > '5')
-      h.failLine(1, "unsupported NRRD version " + shown(magic) +
-                        " (NRRD0001 ... NRRD0005 are read)");
+      h.failLine(1,
+                 "unsupported NRRD version " + shown(magic) + " (NRRD0001 ... NRRD0005 are read)");
     return;
   }
   if (!line.empty() && line.front() == '#') return; // comment
@@ -222,11 +221,12 @@ void processLine(Header& h, std::string_view line, int lineNo) {
   if (it->second == "data file") {
     // "data file: LIST" is followed by file names instead of fields: stop here.
     const auto words = splitWords(line.substr(colon + 1));
-    if (!words.empty() && canonical(words[0]) == "list")
+    if (!words.empty() && words.size() <= 2 && words[0] == "LIST")
       h.failLine(lineNo, "'data file: LIST' (data split over a list of files) is not supported; "
                          "combine the data into one file");
   }
-  auto [pos, inserted] = h.fields.emplace(it->second, Field{std::string(trim(line.substr(colon + 1))), lineNo});
+  auto [pos, inserted] =
+      h.fields.emplace(it->second, Field{std::string(trim(line.substr(colon + 1))), lineNo});
   if (!inserted)
     h.failLine(lineNo, "field '" + it->second + "' appears twice (also on line " +
                            std::to_string(pos->second.line) + ")");
@@ -264,8 +264,10 @@ Header readHeader(const std::string& path) {
       lineStart = 0;
       in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
       const std::streamsize got = in.gcount();
-      if (got <= 0) eof = true;
-      else buf.append(chunk.data(), static_cast<size_t>(got));
+      if (got <= 0)
+        eof = true;
+      else
+        buf.append(chunk.data(), static_cast<size_t>(got));
       if (lineNo == 0 && buf.size() >= 4 && buf.compare(0, 4, "NRRD") != 0)
         h.fail("not a NRRD file: the first line must be a magic 'NRRD0001' ... 'NRRD0005'");
       continue;
@@ -338,15 +340,24 @@ std::optional<VoxelType> typeFromName(const std::string& n) {
 // Space names of the spec and their dimension (time-carrying spaces have 4).
 std::optional<int> spaceDimensionOf(const std::string& n) {
   static const std::map<std::string, int> m = {
-      {"right-anterior-superior", 3}, {"ras", 3},
-      {"left-anterior-superior", 3},  {"las", 3},
-      {"left-posterior-superior", 3}, {"lps", 3},
-      {"scanner-xyz", 3},             {"3d-right-handed", 3},
-      {"3d-left-handed", 3},          {"right-anterior-superior-time", 4},
-      {"rast", 4},                    {"left-anterior-superior-time", 4},
-      {"last", 4},                    {"left-posterior-superior-time", 4},
-      {"lpst", 4},                    {"scanner-xyz-time", 4},
-      {"3d-right-handed-time", 4},    {"3d-left-handed-time", 4},
+      {"right-anterior-superior", 3},
+      {"ras", 3},
+      {"left-anterior-superior", 3},
+      {"las", 3},
+      {"left-posterior-superior", 3},
+      {"lps", 3},
+      {"scanner-xyz", 3},
+      {"3d-right-handed", 3},
+      {"3d-left-handed", 3},
+      {"right-anterior-superior-time", 4},
+      {"rast", 4},
+      {"left-anterior-superior-time", 4},
+      {"last", 4},
+      {"left-posterior-superior-time", 4},
+      {"lpst", 4},
+      {"scanner-xyz-time", 4},
+      {"3d-right-handed-time", 4},
+      {"3d-left-handed-time", 4},
   };
   auto it = m.find(n);
   if (it == m.end()) return std::nullopt;
@@ -379,8 +390,7 @@ std::vector<std::optional<std::vector<double>>> parseVectors(const Header& h, co
         const std::string_view part =
             inner.substr(a, comma == std::string_view::npos ? std::string_view::npos : comma - a);
         double x = 0;
-        if (!parseDouble(part, x))
-          h.fail(f, name + ": " + shown(trim(part)) + " is not a number");
+        if (!parseDouble(part, x)) h.fail(f, name + ": " + shown(trim(part)) + " is not a number");
         v.push_back(x);
         if (comma == std::string_view::npos) break;
         a = comma + 1;
@@ -436,8 +446,8 @@ struct Layout {
   int64_t byteCount = 0; // count * type size
   NrrdEncoding encoding = NrrdEncoding::Raw;
   bool bigEndian = false;
-  std::string dataPath; // file holding the data
-  std::string what;     // names the data in messages (header, plus the data file if detached)
+  std::string dataPath;  // file holding the data
+  std::string what;      // names the data in messages (header, plus the data file if detached)
   int64_t dataStart = 0; // where the data file's data begin (before line/byte skip)
   int64_t lineSkip = 0;
   int64_t byteSkip = 0;
@@ -460,7 +470,8 @@ Layout interpret(const Header& h) {
   // dimension and sizes
   const Field& dimF = h.require("dimension");
   int64_t dim64 = 0;
-  if (!parseInt64(dimF.value, dim64)) h.fail(dimF, "dimension " + shown(dimF.value) + " is not a whole number");
+  if (!parseInt64(dimF.value, dim64))
+    h.fail(dimF, "dimension " + shown(dimF.value) + " is not a whole number");
   if (dim64 < 2 || dim64 > 4)
     h.fail(dimF, "dimension " + std::to_string(dim64) +
                      " is not supported; TetFlow reads 3D scalar volumes (dimension 3, or 4 with "
@@ -469,19 +480,21 @@ Layout interpret(const Header& h) {
   const Field& sizesF = h.require("sizes");
   const auto sizeWords = splitWords(sizesF.value);
   if (static_cast<int>(sizeWords.size()) != dim)
-    h.fail(sizesF, "sizes has " + std::to_string(sizeWords.size()) +
-                       " values but dimension is " + std::to_string(dim));
+    h.fail(sizesF, "sizes has " + std::to_string(sizeWords.size()) + " values but dimension is " +
+                       std::to_string(dim));
   std::vector<int64_t> sizes;
   int64_t count = 1;
   for (int a = 0; a < dim; ++a) {
     int64_t s = 0;
     if (!parseInt64(sizeWords[static_cast<size_t>(a)], s))
-      h.fail(sizesF, "sizes: " + shown(sizeWords[static_cast<size_t>(a)]) + " is not a whole number");
+      h.fail(sizesF,
+             "sizes: " + shown(sizeWords[static_cast<size_t>(a)]) + " is not a whole number");
     if (s < 1)
       h.fail(sizesF, "sizes: axis " + std::to_string(a) + " has size " + std::to_string(s) +
                          "; every size must be at least 1");
     if (__builtin_mul_overflow(count, s, &count))
-      h.fail(sizesF, "sizes " + shown(sizesF.value) + " overflow: the volume would have more than 2^63 voxels");
+      h.fail(sizesF, "sizes " + shown(sizesF.value) +
+                         " overflow: the volume would have more than 2^63 voxels");
     sizes.push_back(s);
   }
   int64_t byteCount = 0;
@@ -502,10 +515,11 @@ Layout interpret(const Header& h) {
   if (spaceDimF) {
     int64_t d = 0;
     if (!parseInt64(spaceDimF->value, d) || d < 1)
-      h.fail(*spaceDimF, "space dimension " + shown(spaceDimF->value) + " is not a whole number >= 1");
+      h.fail(*spaceDimF,
+             "space dimension " + shown(spaceDimF->value) + " is not a whole number >= 1");
     if (spaceF && d != spaceDim)
-      h.fail(*spaceDimF, "space dimension " + std::to_string(d) + " contradicts space " +
-                             shown(spaceF->value));
+      h.fail(*spaceDimF,
+             "space dimension " + std::to_string(d) + " contradicts space " + shown(spaceF->value));
     spaceDim = static_cast<int>(d);
   }
   if (spaceDim > 3)
@@ -553,10 +567,11 @@ Layout interpret(const Header& h) {
   std::vector<int> keep;
   if (dim == 4) {
     if (sizes[0] != 1) {
-      const bool leadingIsComponents = (!kinds.empty() && !isDomainKind(kinds[0])) || (dirF && !dirs[0]);
+      const bool leadingIsComponents =
+          (!kinds.empty() && !isDomainKind(kinds[0])) || (dirF && !dirs[0]);
       if (leadingIsComponents || kinds.empty()) refuseVector(0);
-      h.fail(sizesF, "4-dimensional data (sizes " + std::string(trim(sizesF.value)) +
-                         ", kinds " + kinds[0] + " " + kinds[1] + " " + kinds[2] + " " + kinds[3] +
+      h.fail(sizesF, "4-dimensional data (sizes " + std::string(trim(sizesF.value)) + ", kinds " +
+                         kinds[0] + " " + kinds[1] + " " + kinds[2] + " " + kinds[3] +
                          ") are not supported; TetFlow reads scalar 3D volumes and accepts 4 "
                          "dimensions only with a leading axis of size 1 (time series and "
                          "multi-component data are refused)");
@@ -592,8 +607,8 @@ Layout interpret(const Header& h) {
       for (size_t c = 0; c < v->size(); ++c) d[c] = (*v)[c];
       const double len = norm(d);
       if (!std::isfinite(len))
-        h.fail(*dirF, "space directions: the direction of axis " + std::to_string(a) +
-                          " is not finite");
+        h.fail(*dirF,
+               "space directions: the direction of axis " + std::to_string(a) + " is not finite");
       if (!(len > 0))
         h.fail(*dirF, "space directions: the direction of axis " + std::to_string(a) +
                           " has zero length (zero spacing)");
@@ -626,16 +641,17 @@ Layout interpret(const Header& h) {
     cols[2] = (1.0 / len) * n;
   }
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) g.direction[r][c] = cols[static_cast<size_t>(c)][static_cast<size_t>(r)];
+    for (int c = 0; c < 3; ++c)
+      g.direction[r][c] = cols[static_cast<size_t>(c)][static_cast<size_t>(r)];
 
   if (const Field* orgF = h.find("space origin")) {
     const auto vs = parseVectors(h, *orgF, "space origin");
-    if (vs.size() != 1 || !vs[0])
-      h.fail(*orgF, "space origin must be one vector like '(0,0,0)'");
+    if (vs.size() != 1 || !vs[0]) h.fail(*orgF, "space origin must be one vector like '(0,0,0)'");
     const auto& v = *vs[0];
     if (v.size() > 3 || (spaceDim != 0 && static_cast<int>(v.size()) != spaceDim))
       h.fail(*orgF, "space origin has " + std::to_string(v.size()) +
-                        " components but the space dimension is " + std::to_string(spaceDim ? spaceDim : 3));
+                        " components but the space dimension is " +
+                        std::to_string(spaceDim ? spaceDim : 3));
     for (size_t c = 0; c < v.size(); ++c) {
       if (!std::isfinite(v[c])) h.fail(*orgF, "space origin is not finite");
       g.origin[c] = v[c];
@@ -648,27 +664,45 @@ Layout interpret(const Header& h) {
       const size_t a = static_cast<size_t>(keep[k]);
       const double m = mins[a];
       if (std::isnan(m)) continue;
-      if (!std::isfinite(m)) h.fail(*minF, "axis mins: axis " + std::to_string(a) + " is not finite");
+      if (!std::isfinite(m))
+        h.fail(*minF, "axis mins: axis " + std::to_string(a) + " is not finite");
       // A cell-centred axis min is the outer edge of the first voxel; we store voxel centres.
       g.origin[k] = m + ((!centers.empty() && centers[a] == "cell") ? 0.5 * g.spacing[k] : 0.0);
     }
+  }
+  if (spaceF) {
+    const std::string s = canonical(spaceF->value);
+    const bool flipX = s == "right-anterior-superior" || s == "ras";
+    const bool flipY = flipX || s == "left-anterior-superior" || s == "las";
+    for (int c = 0; c < 3; ++c) {
+      if (flipX) g.direction[0][c] = -g.direction[0][c];
+      if (flipY) g.direction[1][c] = -g.direction[1][c];
+    }
+    if (flipX) g.origin[0] = -g.origin[0];
+    if (flipY) g.origin[1] = -g.origin[1];
   }
   g.validate(geometryWhat);
 
   // encoding and endian
   const Field& encF = h.require("encoding");
   const std::string enc = canonical(encF.value);
-  if (enc == "raw") L.encoding = NrrdEncoding::Raw;
-  else if (enc == "gzip" || enc == "gz") L.encoding = NrrdEncoding::Gzip;
-  else if (enc == "ascii" || enc == "text" || enc == "txt") L.encoding = NrrdEncoding::Ascii;
+  if (enc == "raw")
+    L.encoding = NrrdEncoding::Raw;
+  else if (enc == "gzip" || enc == "gz")
+    L.encoding = NrrdEncoding::Gzip;
+  else if (enc == "ascii" || enc == "text" || enc == "txt")
+    L.encoding = NrrdEncoding::Ascii;
   else if (enc == "bzip2" || enc == "bz2" || enc == "hex" || enc == "zrl")
     h.fail(encF, "encoding '" + enc + "' is not supported (use raw, gzip or ascii)");
-  else h.fail(encF, "unknown encoding " + shown(encF.value) + " (use raw, gzip or ascii)");
+  else
+    h.fail(encF, "unknown encoding " + shown(encF.value) + " (use raw, gzip or ascii)");
 
   if (const Field* endF = h.find("endian")) {
     const std::string e = canonical(endF->value);
-    if (e == "big") L.bigEndian = true;
-    else if (e != "little") h.fail(*endF, "unknown endian " + shown(endF->value) + " (use little or big)");
+    if (e == "big")
+      L.bigEndian = true;
+    else if (e != "little")
+      h.fail(*endF, "unknown endian " + shown(endF->value) + " (use little or big)");
   } else if (typeSize > 1 && L.encoding != NrrdEncoding::Ascii) {
     h.fail("missing required field 'endian' (needed for " + std::string(voxelTypeName(L.type)) +
            " data in " + (L.encoding == NrrdEncoding::Raw ? "raw" : "gzip") + " encoding)");
@@ -779,8 +813,8 @@ void parseAscii(const char* p, const char* e, int64_t n, unsigned char* dst, Vox
     T v{};
     if (!parseAsciiValue<T>(p, q, v)) {
       throw InputError(what + ": ascii value " + std::to_string(i + 1) + " " +
-                       shown(std::string_view(p, static_cast<size_t>(q - p))) +
-                       " is not a valid " + voxelTypeName(type) + " number");
+                       shown(std::string_view(p, static_cast<size_t>(q - p))) + " is not a valid " +
+                       voxelTypeName(type) + " number");
     }
     std::memcpy(dst + static_cast<size_t>(i) * sizeof(T), &v, sizeof(T));
     p = q;
@@ -825,8 +859,7 @@ void readData(const Layout& L, RawVolume& raw) {
       if (available < M)
         throw InputError(L.what + ": data are truncated: the file holds " +
                          std::to_string(available) + " bytes, expected " + std::to_string(M) +
-                         " (" + std::to_string(L.count) + " " + voxelTypeName(L.type) +
-                         " values)");
+                         " (" + std::to_string(L.count) + " " + voxelTypeName(L.type) + " values)");
       raw.bytes.resize(static_cast<size_t>(M));
       readAt(in, offset, reinterpret_cast<char*>(raw.bytes.data()), M, L.what);
       break;
@@ -853,8 +886,8 @@ void readData(const Layout& L, RawVolume& raw) {
       // Every value but the last needs a separator: n values need at least 2n-1 characters.
       if (L.count > (textBytes + 1) / 2)
         throw InputError(L.what + ": ascii data are truncated: " + std::to_string(textBytes) +
-                         " bytes of text hold fewer than the expected " +
-                         std::to_string(L.count) + " values");
+                         " bytes of text hold fewer than the expected " + std::to_string(L.count) +
+                         " values");
       std::vector<char> text(static_cast<size_t>(textBytes));
       readAt(in, offset, text.data(), textBytes, L.what);
       raw.bytes.resize(static_cast<size_t>(M));
@@ -954,7 +987,9 @@ void writeNrrd(const std::string& path, const RawVolume& v, NrrdEncoding enc) {
 
   const bool detached = fileExtension(path) == ".nhdr";
   const fs::path target(path);
-  const char* dataSuffix = enc == NrrdEncoding::Raw ? ".raw" : enc == NrrdEncoding::Gzip ? ".raw.gz" : ".txt";
+  const char* dataSuffix = enc == NrrdEncoding::Raw    ? ".raw"
+                           : enc == NrrdEncoding::Gzip ? ".raw.gz"
+                                                       : ".txt";
   const std::string dataName = target.stem().string() + dataSuffix;
   const std::string dataPath = (target.parent_path() / dataName).string();
 
@@ -969,7 +1004,7 @@ void writeNrrd(const std::string& path, const RawVolume& v, NrrdEncoding enc) {
       << "# http://teem.sourceforge.net/nrrd/format.html\n"
       << "type: " << nrrdTypeName(v.type) << "\n"
       << "dimension: 3\n"
-      << "space dimension: 3\n"
+      << "space: left-posterior-superior\n"
       << "sizes: " << v.grid.dims[0] << " " << v.grid.dims[1] << " " << v.grid.dims[2] << "\n"
       << "space directions:";
   for (int c = 0; c < 3; ++c) {
@@ -980,7 +1015,10 @@ void writeNrrd(const std::string& path, const RawVolume& v, NrrdEncoding enc) {
   }
   hdr << "\nkinds: domain domain domain\n";
   if (size > 1) hdr << "endian: little\n";
-  hdr << "encoding: " << (enc == NrrdEncoding::Raw ? "raw" : enc == NrrdEncoding::Gzip ? "gzip" : "ascii")
+  hdr << "encoding: "
+      << (enc == NrrdEncoding::Raw    ? "raw"
+          : enc == NrrdEncoding::Gzip ? "gzip"
+                                      : "ascii")
       << "\n"
       << "space origin: (" << fmt(v.grid.origin[0]) << "," << fmt(v.grid.origin[1]) << ","
       << fmt(v.grid.origin[2]) << ")\n";
@@ -997,8 +1035,10 @@ void writeNrrd(const std::string& path, const RawVolume& v, NrrdEncoding enc) {
     src = swapped.data();
   }
   std::ofstream& dataStream = detached ? dataOut->stream() : headerOut.stream();
-  if (detached) writeAll(headerOut.stream(), header.data(), header.size());
-  else writeAll(dataStream, header.data(), header.size());
+  if (detached)
+    writeAll(headerOut.stream(), header.data(), header.size());
+  else
+    writeAll(dataStream, header.data(), header.size());
   switch (enc) {
     case NrrdEncoding::Raw:
       writeAll(dataStream, reinterpret_cast<const char*>(src), v.bytes.size());

@@ -26,10 +26,9 @@ namespace {
 using test::TempDir;
 using test::writeBytes;
 
-const VoxelType kAllTypes[] = {VoxelType::Int8,   VoxelType::UInt8,  VoxelType::Int16,
-                               VoxelType::UInt16, VoxelType::Int32,  VoxelType::UInt32,
-                               VoxelType::Int64,  VoxelType::UInt64, VoxelType::Float32,
-                               VoxelType::Float64};
+const VoxelType kAllTypes[] = {
+    VoxelType::Int8,   VoxelType::UInt8, VoxelType::Int16,  VoxelType::UInt16,  VoxelType::Int32,
+    VoxelType::UInt32, VoxelType::Int64, VoxelType::UInt64, VoxelType::Float32, VoxelType::Float64};
 
 template <class T>
 std::string bytesOf(const std::vector<T>& values, bool bigEndian) {
@@ -37,8 +36,7 @@ std::string bytesOf(const std::vector<T>& values, bool bigEndian) {
   for (size_t i = 0; i < values.size(); ++i) {
     unsigned char b[sizeof(T)];
     std::memcpy(b, &values[i], sizeof(T));
-    if (bigEndian == (std::endian::native == std::endian::little))
-      std::reverse(b, b + sizeof(T));
+    if (bigEndian == (std::endian::native == std::endian::little)) std::reverse(b, b + sizeof(T));
     std::memcpy(out.data() + i * sizeof(T), b, sizeof(T));
   }
   return out;
@@ -116,9 +114,9 @@ TEST(InrIO, WrittenHeaderIsPaddedTo256Bytes) {
   ASSERT_EQ(f.size(), 256 + v.bytes.size());
   EXPECT_EQ(f.substr(0, 14), "#INRIMAGE-4#{\n");
   EXPECT_EQ(f.substr(252, 4), "##}\n");
-  for (const char* frag : {"XDIM=2\n", "YDIM=3\n", "ZDIM=1\n", "VDIM=1\n", "TYPE=float\n",
-                           "PIXSIZE=32 bits\n", "CPU=decm\n", "VX=0.5\n", "VY=0.25\n", "VZ=4\n",
-                           "TX=1\n", "TY=2\n", "TZ=3\n"})
+  for (const char* frag :
+       {"XDIM=2\n", "YDIM=3\n", "ZDIM=1\n", "VDIM=1\n", "TYPE=float\n", "PIXSIZE=32 bits\n",
+        "CPU=decm\n", "VX=0.5\n", "VY=0.25\n", "VZ=4\n", "TX=1\n", "TY=2\n", "TZ=3\n"})
     EXPECT_NE(f.find(frag), std::string::npos) << frag;
   // Data little endian right after the header.
   EXPECT_EQ(f.substr(256), bytesOf(valuesOf<float>(v), false));
@@ -173,9 +171,10 @@ TEST(InrIO, ReadsBothCpuByteOrders) {
     EXPECT_EQ(valuesOf<int16_t>(v), vals);
   }
   const std::vector<double> d = {1.5, -0.1, 1e300, 4};
-  writeBytes(dir.file("f64.inr"),
-             inrHeader("XDIM=1\nYDIM=4\nTYPE=float\nPIXSIZE=64 bits\nCPU=sun\nTX=-1.5\nTY=2\nTZ=1e3\n") +
-                 bytesOf(d, true));
+  writeBytes(
+      dir.file("f64.inr"),
+      inrHeader("XDIM=1\nYDIM=4\nTYPE=float\nPIXSIZE=64 bits\nCPU=sun\nTX=-1.5\nTY=2\nTZ=1e3\n") +
+          bytesOf(d, true));
   const RawVolume v = readInr(dir.file("f64.inr"));
   EXPECT_EQ(v.type, VoxelType::Float64);
   EXPECT_EQ(v.grid.dims, (std::array<int64_t, 3>{1, 4, 1})); // ZDIM defaults to 1
@@ -194,8 +193,8 @@ TEST(InrIO, ReadsEveryTypeAndPixelSize) {
   };
   for (const auto& [type, bits, want] : cases) {
     SCOPED_TRACE(type + " " + std::to_string(bits));
-    writeBytes(dir.file("t.inr"), inrHeader("XDIM=3\nYDIM=1\nZDIM=1\nTYPE=" + type +
-                                            "\nPIXSIZE=" + std::to_string(bits) + " bits\nCPU=pc\n") +
+    writeBytes(dir.file("t.inr"), inrHeader("XDIM=3\nYDIM=1\nZDIM=1\nTYPE=" + type + "\nPIXSIZE=" +
+                                            std::to_string(bits) + " bits\nCPU=pc\n") +
                                       std::string(3 * static_cast<size_t>(bits) / 8, '\x01'));
     const RawVolume v = readInr(dir.file("t.inr"));
     EXPECT_EQ(v.type, want);
@@ -225,7 +224,8 @@ TEST(InrIO, LongHeaderAndGzipDetectedByContent) {
   writeBytes(dir.file("plain.inr.gz"), file);
   EXPECT_EQ(valuesOf<uint16_t>(readInr(dir.file("plain.inr.gz"))), vals);
   // A tiny gzip file (header + 1 byte).
-  const std::string tiny = inrHeader("XDIM=1\nYDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n") + "\x2a";
+  const std::string tiny =
+      inrHeader("XDIM=1\nYDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n") + "\x2a";
   writeBytes(dir.file("tiny.inr.gz"), gzipCompress(tiny.data(), tiny.size()));
   EXPECT_EQ(valuesOf<uint8_t>(readInr(dir.file("tiny.inr.gz"))), (std::vector<uint8_t>{42}));
 }
@@ -241,8 +241,10 @@ TEST(InrIO, LargeGzipReadIsFast) {
     for (int64_t j = 0; j < 300; ++j)
       for (int64_t i = 0; i < 300; ++i) {
         const double r = std::hypot(i - 150.0, j - 150.0, k - 140.0);
-        v.bytes[static_cast<size_t>(i + 300 * (j + 300 * k))] =
-            static_cast<uint8_t>(r < 60 ? 3 : r < 100 ? 2 : r < 130 ? 1 : 0);
+        v.bytes[static_cast<size_t>(i + 300 * (j + 300 * k))] = static_cast<uint8_t>(r < 60    ? 3
+                                                                                     : r < 100 ? 2
+                                                                                     : r < 130 ? 1
+                                                                                               : 0);
       }
   writeInr(dir.file("big.inr.gz"), v);
   const auto t0 = std::chrono::steady_clock::now();
@@ -308,7 +310,8 @@ TEST(InrBroken, HeaderFields) {
       {"TYPE=unsigned fixed", "TYPE=packed", {"b.inr:6", "unknown TYPE 'packed'"}},
       {"PIXSIZE=8 bits", "PIXSIZE=12 bits", {"b.inr:7", "PIXSIZE '12 bits'", "8, 16, 32 or 64"}},
       {"PIXSIZE=8 bits", "PIXSIZE=eight", {"b.inr:7", "'eight'", "like '8 bits'"}},
-      {"TYPE=unsigned fixed\nPIXSIZE=8 bits", "TYPE=float\nPIXSIZE=16 bits",
+      {"TYPE=unsigned fixed\nPIXSIZE=8 bits",
+       "TYPE=float\nPIXSIZE=16 bits",
        {"b.inr:7", "does not match TYPE float"}},
       {"CPU=decm", "CPU=vax", {"b.inr:8", "unknown CPU 'vax'"}},
       {"VX=1", "VX=0", {"b.inr:9", "VX=0", "positive"}},
@@ -319,7 +322,8 @@ TEST(InrBroken, HeaderFields) {
       {"ZDIM=2", "ZDIM=-4", {"b.inr:4", "ZDIM '-4'"}},
       {"VX=1", "TX=nan", {"b.inr:9", "TX 'nan' is not a number"}},
       {"VX=1", "junk line", {"b.inr:9", "expected KEY=VALUE"}},
-      {"XDIM=2\nYDIM=2\nZDIM=2", "XDIM=4294967296\nYDIM=4294967296\nZDIM=4294967296",
+      {"XDIM=2\nYDIM=2\nZDIM=2",
+       "XDIM=4294967296\nYDIM=4294967296\nZDIM=4294967296",
        {"b.inr", "overflows"}},
   };
   for (const auto& c : cases) {
@@ -350,7 +354,8 @@ TEST(InrBroken, TruncatedMismatchedAndAbsurdData) {
   EXPECT_THROW_MSG(readInr(dir.file("t.inr.gz")), InputError, "t.inr.gz", "truncated",
                    "expected 264");
   // Lying sizes: refused before allocating (1e15 bytes).
-  const std::string huge = headerWith("XDIM=2\nYDIM=2\nZDIM=2", "XDIM=100000\nYDIM=100000\nZDIM=100000");
+  const std::string huge =
+      headerWith("XDIM=2\nYDIM=2\nZDIM=2", "XDIM=100000\nYDIM=100000\nZDIM=100000");
   writeBytes(dir.file("huge.inr"), huge + "abc");
   EXPECT_THROW_MSG(readInr(dir.file("huge.inr")), InputError, "huge.inr",
                    "holds 3 bytes after the header, expected 1000000000000000");

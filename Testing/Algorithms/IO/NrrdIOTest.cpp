@@ -27,10 +27,9 @@ namespace {
 using test::TempDir;
 using test::writeBytes;
 
-const VoxelType kAllTypes[] = {VoxelType::Int8,   VoxelType::UInt8,  VoxelType::Int16,
-                               VoxelType::UInt16, VoxelType::Int32,  VoxelType::UInt32,
-                               VoxelType::Int64,  VoxelType::UInt64, VoxelType::Float32,
-                               VoxelType::Float64};
+const VoxelType kAllTypes[] = {
+    VoxelType::Int8,   VoxelType::UInt8, VoxelType::Int16,  VoxelType::UInt16,  VoxelType::Int32,
+    VoxelType::UInt32, VoxelType::Int64, VoxelType::UInt64, VoxelType::Float32, VoxelType::Float64};
 const NrrdEncoding kAllEncodings[] = {NrrdEncoding::Raw, NrrdEncoding::Gzip, NrrdEncoding::Ascii};
 
 const char* encodingName(NrrdEncoding e) {
@@ -44,8 +43,7 @@ std::string bytesOf(const std::vector<T>& values, bool bigEndian) {
   for (size_t i = 0; i < values.size(); ++i) {
     unsigned char b[sizeof(T)];
     std::memcpy(b, &values[i], sizeof(T));
-    if (bigEndian == (std::endian::native == std::endian::little))
-      std::reverse(b, b + sizeof(T));
+    if (bigEndian == (std::endian::native == std::endian::little)) std::reverse(b, b + sizeof(T));
     std::memcpy(out.data() + i * sizeof(T), b, sizeof(T));
   }
   return out;
@@ -66,7 +64,7 @@ void fillRandom(RawVolume& v, std::mt19937_64& rng) {
     std::uniform_real_distribution<T> d(T(-1000), T(1000));
     for (auto& x : vals) x = d(rng);
     if (n > 2) {
-      vals[0] = T(0.1);                              // not exactly representable
+      vals[0] = T(0.1);                               // not exactly representable
       vals[1] = std::numeric_limits<T>::denorm_min(); // extremes survive ascii
       vals[2] = std::numeric_limits<T>::max();
     }
@@ -156,8 +154,10 @@ void expectSameGeometry(const GridGeometry& want, const GridGeometry& got, bool 
       EXPECT_EQ(want.origin[i], got.origin[i]) << "axis " << i;
     }
     for (int j = 0; j < 3; ++j) {
-      if (exact) EXPECT_EQ(want.direction[i][j], got.direction[i][j]) << i << "," << j;
-      else EXPECT_NEAR(want.direction[i][j], got.direction[i][j], 1e-14) << i << "," << j;
+      if (exact)
+        EXPECT_EQ(want.direction[i][j], got.direction[i][j]) << i << "," << j;
+      else
+        EXPECT_NEAR(want.direction[i][j], got.direction[i][j], 1e-14) << i << "," << j;
     }
   }
 }
@@ -225,10 +225,9 @@ TEST(NrrdIO, WrittenHeaderFollowsTheSpec) {
   writeNrrd(dir.file("h.nhdr"), v, NrrdEncoding::Gzip);
   const std::string h = readText(dir.file("h.nhdr"));
   for (const char* frag :
-       {"NRRD0004\n", "type: short\n", "dimension: 3\n", "space dimension: 3\n", "sizes: 2 3 4\n",
+       {"NRRD0004\n", "type: short\n", "dimension: 3\n", "space: left-posterior-superior\n", "sizes: 2 3 4\n",
         "space directions: (0.5,0,0) (0,0.25,0) (0,0,2)\n", "kinds: domain domain domain\n",
-        "endian: little\n", "encoding: gzip\n", "space origin: (1,2,3)\n",
-        "data file: h.raw.gz\n"})
+        "endian: little\n", "encoding: gzip\n", "space origin: (1,2,3)\n", "data file: h.raw.gz\n"})
     EXPECT_NE(h.find(frag), std::string::npos) << "header lacks " << frag << ":\n" << h;
   // The data file really is little-endian gzip of the values.
   const std::string packed = readText(dir.file("h.raw.gz"));
@@ -329,7 +328,8 @@ TEST(NrrdIO, ReadsBigEndianFloatsWithSpaceDirections) {
 
   const std::vector<float> fv = {1.5f, -2.25f, 3e38f, 0.1f};
   writeBytes(dir.file("f32.nrrd"), "NRRD0004\ntype: float\ndimension: 3\nsizes: 1 2 2\n"
-                                   "endian: big\nencoding: raw\n\n" + bytesOf(fv, true));
+                                   "endian: big\nencoding: raw\n\n" +
+                                       bytesOf(fv, true));
   EXPECT_EQ(valuesOf<float>(readNrrd(dir.file("f32.nrrd"))), fv);
 }
 
@@ -345,8 +345,8 @@ TEST(NrrdIO, ReadsDetachedDataRelativeToTheHeader) {
   // Absolute data file path; header may end with a blank line and trailing text.
   const std::string abs = (dir.path() / "hdr" / "data" / "vol.bin").string();
   writeBytes(dir.file("abs.nhdr"), "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 2 2 2\n"
-                                   "endian: big\nencoding: raw\ndatafile: " + abs +
-                                       "\n\nignored text");
+                                   "endian: big\nencoding: raw\ndatafile: " +
+                                       abs + "\n\nignored text");
   EXPECT_EQ(valuesOf<uint16_t>(readNrrd(dir.file("abs.nhdr"))), kU16);
 }
 
@@ -358,7 +358,8 @@ TEST(NrrdIO, ReadsGzipInBothByteOrders) {
     const std::string data = bytesOf(vals, big);
     writeBytes(dir.file("i32.nrrd"), std::string("NRRD0004\ntype: int32_t\ndimension: 3\n") +
                                          "sizes: 2 2 2\nendian: " + (big ? "big" : "little") +
-                                         "\nencoding: gz\n\n" + gzipCompress(data.data(), data.size()));
+                                         "\nencoding: gz\n\n" +
+                                         gzipCompress(data.data(), data.size()));
     EXPECT_EQ(valuesOf<int32_t>(readNrrd(dir.file("i32.nrrd"))), vals);
   }
   // Detached gzip with a byte skip applied to the inflated data.
@@ -431,8 +432,9 @@ TEST(NrrdIO, DimensionFourWithLeadingSingletonAxis) {
   const RawVolume v = readNrrd(dir.file("d4.nrrd"));
   EXPECT_EQ(v.grid.dims, (std::array<int64_t, 3>{3, 2, 1}));
   EXPECT_EQ(v.grid.spacing, (Vec3{0.5, 2, 4}));
-  EXPECT_EQ(v.grid.origin, (Vec3{-1, -2, -3}));
-  EXPECT_TRUE(v.grid.isAxisAligned());
+  // RAS in the file is LPS in TetFlow: x and y negated.
+  EXPECT_EQ(v.grid.origin, (Vec3{1, 2, -3}));
+  EXPECT_EQ(v.grid.direction, (Mat3{{{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}}}));
   EXPECT_EQ(valuesOf<uint8_t>(v), vals);
 
   // Dimension 3 with a 'none' leading axis of size 1 and spacings: a single slice.
@@ -460,10 +462,11 @@ TEST(NrrdIO, DimensionTwoIsOneSlice) {
   EXPECT_EQ(valuesOf<int8_t>(v), vals);
 
   // 2D in a 2D space, one axis flipped: the slice normal completes a right-handed frame.
-  writeBytes(dir.file("d2s.nrrd"), "NRRD0004\ntype: int8\ndimension: 2\nspace dimension: 2\n"
-                                   "sizes: 3 2\nspace directions: (-2,0) (0,3)\nspace origin: (4,5)\n"
-                                   "encoding: raw\n\n" +
-                                       bytesOf(vals, false));
+  writeBytes(dir.file("d2s.nrrd"),
+             "NRRD0004\ntype: int8\ndimension: 2\nspace dimension: 2\n"
+             "sizes: 3 2\nspace directions: (-2,0) (0,3)\nspace origin: (4,5)\n"
+             "encoding: raw\n\n" +
+                 bytesOf(vals, false));
   v = readNrrd(dir.file("d2s.nrrd"));
   EXPECT_EQ(v.grid.spacing, (Vec3{2, 3, 1}));
   EXPECT_EQ(v.grid.origin, (Vec3{4, 5, 0}));
@@ -483,26 +486,46 @@ TEST(NrrdIO, AxisMinsGiveTheOriginAndCellCentringIsHonoured) {
 TEST(NrrdIO, EveryTypeSpellingOfTheSpec) {
   TempDir dir;
   const std::vector<std::pair<std::string, VoxelType>> spellings = {
-      {"signed char", VoxelType::Int8},         {"int8", VoxelType::Int8},
-      {"int8_t", VoxelType::Int8},              {"uchar", VoxelType::UInt8},
-      {"unsigned char", VoxelType::UInt8},      {"uint8", VoxelType::UInt8},
-      {"uint8_t", VoxelType::UInt8},            {"short", VoxelType::Int16},
-      {"short int", VoxelType::Int16},          {"signed short", VoxelType::Int16},
-      {"signed short int", VoxelType::Int16},   {"int16", VoxelType::Int16},
-      {"int16_t", VoxelType::Int16},            {"ushort", VoxelType::UInt16},
-      {"unsigned short", VoxelType::UInt16},    {"unsigned short int", VoxelType::UInt16},
-      {"uint16", VoxelType::UInt16},            {"uint16_t", VoxelType::UInt16},
-      {"int", VoxelType::Int32},                {"signed int", VoxelType::Int32},
-      {"int32", VoxelType::Int32},              {"int32_t", VoxelType::Int32},
-      {"uint", VoxelType::UInt32},              {"unsigned int", VoxelType::UInt32},
-      {"uint32", VoxelType::UInt32},            {"uint32_t", VoxelType::UInt32},
-      {"longlong", VoxelType::Int64},           {"long long", VoxelType::Int64},
-      {"long long int", VoxelType::Int64},      {"signed long long", VoxelType::Int64},
-      {"signed long long int", VoxelType::Int64}, {"int64", VoxelType::Int64},
-      {"int64_t", VoxelType::Int64},            {"ulonglong", VoxelType::UInt64},
-      {"unsigned long long", VoxelType::UInt64}, {"unsigned long long int", VoxelType::UInt64},
-      {"uint64", VoxelType::UInt64},            {"uint64_t", VoxelType::UInt64},
-      {"float", VoxelType::Float32},            {"double", VoxelType::Float64},
+      {"signed char", VoxelType::Int8},
+      {"int8", VoxelType::Int8},
+      {"int8_t", VoxelType::Int8},
+      {"uchar", VoxelType::UInt8},
+      {"unsigned char", VoxelType::UInt8},
+      {"uint8", VoxelType::UInt8},
+      {"uint8_t", VoxelType::UInt8},
+      {"short", VoxelType::Int16},
+      {"short int", VoxelType::Int16},
+      {"signed short", VoxelType::Int16},
+      {"signed short int", VoxelType::Int16},
+      {"int16", VoxelType::Int16},
+      {"int16_t", VoxelType::Int16},
+      {"ushort", VoxelType::UInt16},
+      {"unsigned short", VoxelType::UInt16},
+      {"unsigned short int", VoxelType::UInt16},
+      {"uint16", VoxelType::UInt16},
+      {"uint16_t", VoxelType::UInt16},
+      {"int", VoxelType::Int32},
+      {"signed int", VoxelType::Int32},
+      {"int32", VoxelType::Int32},
+      {"int32_t", VoxelType::Int32},
+      {"uint", VoxelType::UInt32},
+      {"unsigned int", VoxelType::UInt32},
+      {"uint32", VoxelType::UInt32},
+      {"uint32_t", VoxelType::UInt32},
+      {"longlong", VoxelType::Int64},
+      {"long long", VoxelType::Int64},
+      {"long long int", VoxelType::Int64},
+      {"signed long long", VoxelType::Int64},
+      {"signed long long int", VoxelType::Int64},
+      {"int64", VoxelType::Int64},
+      {"int64_t", VoxelType::Int64},
+      {"ulonglong", VoxelType::UInt64},
+      {"unsigned long long", VoxelType::UInt64},
+      {"unsigned long long int", VoxelType::UInt64},
+      {"uint64", VoxelType::UInt64},
+      {"uint64_t", VoxelType::UInt64},
+      {"float", VoxelType::Float32},
+      {"double", VoxelType::Float64},
   };
   for (const auto& [name, type] : spellings) {
     SCOPED_TRACE(name);
@@ -511,7 +534,8 @@ TEST(NrrdIO, EveryTypeSpellingOfTheSpec) {
     data[0] = 1; // little endian: value 1 in an integer type
     writeBytes(dir.file("t.nrrd"), "NRRD0004\ntype: " + name +
                                        "\ndimension: 3\nsizes: 2 1 1\nendian: little\n"
-                                       "encoding: raw\n\n" + data);
+                                       "encoding: raw\n\n" +
+                                       data);
     const RawVolume v = readNrrd(dir.file("t.nrrd"));
     EXPECT_EQ(v.type, type);
     EXPECT_EQ(v.bytes.size(), 2 * n);
@@ -549,8 +573,10 @@ TEST(NrrdIO, LargeGzipReadIsFast) {
     for (int64_t j = 0; j < 300; ++j)
       for (int64_t i = 0; i < 300; ++i) {
         const double r = std::hypot(i - 150.0, j - 150.0, k - 140.0);
-        v.bytes[static_cast<size_t>(i + 300 * (j + 300 * k))] =
-            static_cast<uint8_t>(r < 60 ? 3 : r < 100 ? 2 : r < 130 ? 1 : 0);
+        v.bytes[static_cast<size_t>(i + 300 * (j + 300 * k))] = static_cast<uint8_t>(r < 60    ? 3
+                                                                                     : r < 100 ? 2
+                                                                                     : r < 130 ? 1
+                                                                                               : 0);
       }
   writeNrrd(dir.file("big.nrrd"), v, NrrdEncoding::Gzip);
   const auto t0 = std::chrono::steady_clock::now();
@@ -570,14 +596,16 @@ protected:
   TempDir dir;
   // Writes an attached file "<name>" from header lines (joined with newlines, then a blank line)
   // and data bytes; returns its path.
-  std::string attached(const std::string& name, const std::string& header, const std::string& data) {
+  std::string attached(const std::string& name, const std::string& header,
+                       const std::string& data) {
     const std::string p = dir.file(name);
     writeBytes(p, header + "\n" + data);
     return p;
   }
 };
 
-const std::string kGood = "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 2 2 2\nendian: little\nencoding: raw\n";
+const std::string kGood =
+    "NRRD0004\ntype: uint16\ndimension: 3\nsizes: 2 2 2\nendian: little\nencoding: raw\n";
 
 TEST_F(NrrdBroken, NotANrrd) {
   EXPECT_THROW_MSG(readNrrd(dir.file("none.nrrd")), InputError, "none.nrrd", "not found");
@@ -592,7 +620,8 @@ TEST_F(NrrdBroken, NotANrrd) {
 }
 
 TEST_F(NrrdBroken, HeaderLines) {
-  auto p = attached("t.nhdr", "NRRD0004\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\ntype: quaternion\n", "");
+  auto p = attached(
+      "t.nhdr", "NRRD0004\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\ntype: quaternion\n", "");
   // (type after the blank line does not count)
   EXPECT_THROW_MSG(readNrrd(p), InputError, "t.nhdr", "missing required field 'type'");
   p = attached("head.nhdr", "NRRD0004\n# c\n#c\n#c\n#c\n#c\ntype: quaternion\n", "");
@@ -607,30 +636,32 @@ TEST_F(NrrdBroken, HeaderLines) {
 
 TEST_F(NrrdBroken, MissingRequiredFields) {
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"type", "type: uint16\n"},
-      {"dimension", "dimension: 3\n"},
-      {"sizes", "sizes: 2 2 2\n"},
-      {"encoding", "encoding: raw\n"},
-      {"endian", "endian: little\n"},
+      {"type", "type: uint16\n"},      {"dimension", "dimension: 3\n"}, {"sizes", "sizes: 2 2 2\n"},
+      {"encoding", "encoding: raw\n"}, {"endian", "endian: little\n"},
   };
   for (const auto& [field, line] : cases) {
     SCOPED_TRACE(field);
     std::string h = kGood;
     h.erase(h.find(line), line.size());
     const auto p = attached("miss.nrrd", h, std::string(16, '\0'));
-    EXPECT_THROW_MSG(readNrrd(p), InputError, "miss.nrrd", "missing required field '" + field + "'");
+    EXPECT_THROW_MSG(readNrrd(p), InputError, "miss.nrrd",
+                     "missing required field '" + field + "'");
   }
   // endian is not needed for single bytes or ascii.
-  auto p = attached("u8.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 1 1\nencoding: raw\n", "ab");
+  auto p = attached("u8.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 1 1\nencoding: raw\n",
+                    "ab");
   EXPECT_NO_THROW(readNrrd(p));
-  p = attached("asc.nrrd", "NRRD0004\ntype: double\ndimension: 3\nsizes: 2 1 1\nencoding: ascii\n", "1 2");
+  p = attached("asc.nrrd", "NRRD0004\ntype: double\ndimension: 3\nsizes: 2 1 1\nencoding: ascii\n",
+               "1 2");
   EXPECT_NO_THROW(readNrrd(p));
 }
 
 TEST_F(NrrdBroken, BadNumbersAndShapes) {
-  auto p = attached("n.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 x 2\nencoding: raw\n", "");
+  auto p =
+      attached("n.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 x 2\nencoding: raw\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "n.nrrd:4", "'x'", "not a whole number");
-  p = attached("n.nrrd", "NRRD0004\ntype: uint8\ndimension: three\nsizes: 2 2 2\nencoding: raw\n", "");
+  p = attached("n.nrrd", "NRRD0004\ntype: uint8\ndimension: three\nsizes: 2 2 2\nencoding: raw\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "n.nrrd:3", "'three'");
   p = attached("n.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2\nencoding: raw\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "n.nrrd:4", "sizes has 2 values but dimension is 3");
@@ -638,21 +669,42 @@ TEST_F(NrrdBroken, BadNumbersAndShapes) {
   EXPECT_THROW_MSG(readNrrd(p), InputError, "n.nrrd:4", "size 0");
   p = attached("n.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 -3 2\nencoding: raw\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "n.nrrd:4", "size -3");
-  p = attached("o.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4294967296 4294967296 4294967296\nencoding: raw\n", "");
+  p = attached("o.nrrd",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4294967296 4294967296 "
+               "4294967296\nencoding: raw\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "o.nrrd:4", "overflow");
-  p = attached("o.nrrd", "NRRD0004\ntype: double\ndimension: 3\nsizes: 4294967296 1073741824 2\nencoding: raw\nendian: little\n", "");
+  p = attached("o.nrrd",
+               "NRRD0004\ntype: double\ndimension: 3\nsizes: 4294967296 1073741824 2\nencoding: "
+               "raw\nendian: little\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "o.nrrd:4", "overflow");
   for (const char* d : {"1", "5", "0"}) {
-    p = attached("d.nrrd", std::string("NRRD0004\ntype: uint8\ndimension: ") + d + "\nsizes: 2\nencoding: raw\n", "");
-    EXPECT_THROW_MSG(readNrrd(p), InputError, "d.nrrd:3", std::string("dimension ") + d + " is not supported");
+    p = attached(
+        "d.nrrd",
+        std::string("NRRD0004\ntype: uint8\ndimension: ") + d + "\nsizes: 2\nencoding: raw\n", "");
+    EXPECT_THROW_MSG(readNrrd(p), InputError, "d.nrrd:3",
+                     std::string("dimension ") + d + " is not supported");
   }
-  p = attached("v.nrrd", "NRRD0004\ntype: float\ndimension: 4\nsizes: 3 2 2 2\nkinds: 3-vector domain domain domain\nencoding: raw\nendian: little\n", "");
-  EXPECT_THROW_MSG(readNrrd(p), InputError, "v.nrrd:4", "3 values per voxel", "3-vector", "not supported");
-  p = attached("v.nrrd", "NRRD0004\ntype: float\ndimension: 4\nsizes: 2 2 2 3\nencoding: raw\nendian: little\n", "");
+  p = attached("v.nrrd",
+               "NRRD0004\ntype: float\ndimension: 4\nsizes: 3 2 2 2\nkinds: 3-vector domain domain "
+               "domain\nencoding: raw\nendian: little\n",
+               "");
+  EXPECT_THROW_MSG(readNrrd(p), InputError, "v.nrrd:4", "3 values per voxel", "3-vector",
+                   "not supported");
+  p = attached(
+      "v.nrrd",
+      "NRRD0004\ntype: float\ndimension: 4\nsizes: 2 2 2 3\nencoding: raw\nendian: little\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "v.nrrd:4", "2 values per voxel");
-  p = attached("ts.nrrd", "NRRD0004\ntype: float\ndimension: 4\nsizes: 2 2 2 3\nkinds: space space space time\nencoding: raw\nendian: little\n", "");
+  p = attached("ts.nrrd",
+               "NRRD0004\ntype: float\ndimension: 4\nsizes: 2 2 2 3\nkinds: space space space "
+               "time\nencoding: raw\nendian: little\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "ts.nrrd:4", "4-dimensional", "time series");
-  p = attached("v.nrrd", "NRRD0004\ntype: float\ndimension: 3\nsizes: 3 4 5\nkinds: RGB-color domain domain\nencoding: raw\nendian: little\n", "");
+  p = attached("v.nrrd",
+               "NRRD0004\ntype: float\ndimension: 3\nsizes: 3 4 5\nkinds: RGB-color domain "
+               "domain\nencoding: raw\nendian: little\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "v.nrrd:4", "rgb-color", "vector");
 }
 
@@ -665,7 +717,8 @@ TEST_F(NrrdBroken, BadGeometry) {
   EXPECT_THROW_MSG(readNrrd(p), InputError, "s.nrrd:7", "'abc' is not a number");
   p = attached("s.nrrd", kGood + "spacings: 1 1\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "s.nrrd:7", "2 values but dimension is 3");
-  p = attached("sd.nrrd", kGood + "space dimension: 3\nspace directions: (1,0,0) (0,0,0) (0,0,1)\n", "");
+  p = attached("sd.nrrd", kGood + "space dimension: 3\nspace directions: (1,0,0) (0,0,0) (0,0,1)\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "sd.nrrd:8", "zero length");
   p = attached("sd.nrrd", kGood + "space directions: (1,0,0) (1,1,0) (0,0,1)\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "sd.nrrd:7", "orthonormal");
@@ -677,7 +730,8 @@ TEST_F(NrrdBroken, BadGeometry) {
   EXPECT_THROW_MSG(readNrrd(p), InputError, "sd.nrrd:7", "'x' is not a number");
   p = attached("sd.nrrd", kGood + "space directions: (1,0,0) none (0,0,1)\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "sd.nrrd:7", "axis 1", "'none'");
-  p = attached("sd.nrrd", kGood + "space: 3D-right-handed\nspace directions: (1,0) (0,1) (0,0)\n", "");
+  p = attached("sd.nrrd", kGood + "space: 3D-right-handed\nspace directions: (1,0) (0,1) (0,0)\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "sd.nrrd:8", "2 components", "space dimension is 3");
   p = attached("sp.nrrd", kGood + "space: upside-down\n", "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "sp.nrrd:7", "unknown space 'upside-down'");
@@ -694,7 +748,8 @@ TEST_F(NrrdBroken, EncodingAndEndian) {
     std::string h = kGood;
     h.replace(h.find("encoding: raw"), 13, std::string("encoding: ") + e);
     const auto p = attached("e.nrrd", h, "");
-    EXPECT_THROW_MSG(readNrrd(p), InputError, "e.nrrd:6", std::string("encoding '") + e + "'", "not supported");
+    EXPECT_THROW_MSG(readNrrd(p), InputError, "e.nrrd:6", std::string("encoding '") + e + "'",
+                     "not supported");
   }
   std::string h = kGood;
   h.replace(h.find("encoding: raw"), 13, "encoding: morse");
@@ -704,11 +759,17 @@ TEST_F(NrrdBroken, EncodingAndEndian) {
   h.replace(h.find("endian: little"), 14, "endian: middle");
   p = attached("e.nrrd", h, "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "e.nrrd:5", "unknown endian 'middle'");
-  p = attached("bs.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: gzip\nbyte skip: -1\n", "");
+  p = attached("bs.nrrd",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: gzip\nbyte skip: -1\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "bs.nrrd:6", "only allowed with raw");
-  p = attached("bs.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nbyte skip: -2\n", "");
+  p = attached("bs.nrrd",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nbyte skip: -2\n",
+               "");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "bs.nrrd:6", "byte skip '-2'");
-  p = attached("ls.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nline skip: 5\n", "one\ntwo\n");
+  p = attached("ls.nrrd",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nline skip: 5\n",
+               "one\ntwo\n");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "ls.nrrd", "line skip 5", "found only 2");
 }
 
@@ -721,16 +782,22 @@ TEST_F(NrrdBroken, TruncatedAndAbsurdData) {
   p = attached("tr.nrrd", kGood + "byte skip: 4\n", std::string(16, '\0'));
   EXPECT_THROW_MSG(readNrrd(p), InputError, "tr.nrrd", "holds 12 bytes, expected 16");
   // A lying header is refused before anything is allocated (1 PB would not fit).
-  p = attached("huge.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\n", "abc");
-  EXPECT_THROW_MSG(readNrrd(p), InputError, "huge.nrrd", "holds 3 bytes, expected 1000000000000000");
+  p = attached("huge.nrrd",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\nencoding: raw\n",
+               "abc");
+  EXPECT_THROW_MSG(readNrrd(p), InputError, "huge.nrrd",
+                   "holds 3 bytes, expected 1000000000000000");
   const std::string small = gzipCompress("abcdefgh", 8);
-  p = attached("hugez.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\nencoding: gzip\n", small);
+  p = attached("hugez.nrrd",
+               "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\nencoding: gzip\n",
+               small);
   EXPECT_THROW_MSG(readNrrd(p), InputError, "hugez.nrrd", "cannot hold");
   // gzip: the stream is shorter than announced
   p = attached("trz.nrrd", kGood.substr(0, kGood.find("encoding")) + "encoding: gzip\n", small);
   EXPECT_THROW_MSG(readNrrd(p), InputError, "trz.nrrd", "truncated", "holds 8 bytes, expected 16");
   // gzip announced but raw bytes stored
-  p = attached("bad.nrrd", kGood.substr(0, kGood.find("encoding")) + "encoding: gzip\n", std::string(64, 'z'));
+  p = attached("bad.nrrd", kGood.substr(0, kGood.find("encoding")) + "encoding: gzip\n",
+               std::string(64, 'z'));
   EXPECT_THROW_MSG(readNrrd(p), InputError, "bad.nrrd", "corrupt");
   // no blank line and no data file
   writeBytes(dir.file("nodata.nhdr"), kGood);
@@ -751,7 +818,10 @@ TEST_F(NrrdBroken, Ascii) {
   EXPECT_THROW_MSG(readNrrd(p), InputError, "a.nrrd", "ascii value 4 '-1'");
   p = attached("a.nrrd", h, "1 2 3 4.5 5 6 7 8\n");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "a.nrrd", "ascii value 4 '4.5'");
-  p = attached("a.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\nencoding: ascii\n", "1 2 3");
+  p = attached(
+      "a.nrrd",
+      "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\nencoding: ascii\n",
+      "1 2 3");
   EXPECT_THROW_MSG(readNrrd(p), InputError, "a.nrrd", "truncated");
 }
 
@@ -769,6 +839,25 @@ TEST_F(NrrdBroken, DetachedDataFiles) {
   writeBytes(dir.file("short.nhdr"), kGood + "data file: short.raw\n");
   EXPECT_THROW_MSG(readNrrd(dir.file("short.nhdr")), InputError, "short.nhdr", "short.raw",
                    "holds 10 bytes, expected 16");
+}
+
+TEST(NrrdIO, RasAndLpsHeadersOfTheSameGridReadAlike) {
+  TempDir dir;
+  const std::string data(8, '\x07');
+  writeBytes(dir.file("lps.nrrd"), "NRRD0004\ntype: uint8\ndimension: 3\nspace: left-posterior-superior\n"
+                                   "sizes: 2 2 2\nspace directions: (-1,0,0) (0,-2,0) (0,0,3)\n"
+                                   "encoding: raw\nspace origin: (10,20,30)\n\n" + data);
+  writeBytes(dir.file("ras.nrrd"), "NRRD0004\ntype: uint8\ndimension: 3\nspace: RAS\n"
+                                   "sizes: 2 2 2\nspace directions: (1,0,0) (0,2,0) (0,0,3)\n"
+                                   "encoding: raw\nspace origin: (-10,-20,30)\n\n" + data);
+  writeBytes(dir.file("las.nrrd"), "NRRD0004\ntype: uint8\ndimension: 3\nspace: left-anterior-superior\n"
+                                   "sizes: 2 2 2\nspace directions: (-1,0,0) (0,2,0) (0,0,3)\n"
+                                   "encoding: raw\nspace origin: (10,-20,30)\n\n" + data);
+  const GridGeometry lps = readNrrd(dir.file("lps.nrrd")).grid;
+  EXPECT_EQ(readNrrd(dir.file("ras.nrrd")).grid, lps);
+  EXPECT_EQ(readNrrd(dir.file("las.nrrd")).grid, lps);
+  EXPECT_EQ(lps.origin, (Vec3{10, 20, 30}));
+  EXPECT_EQ(lps.spacing, (Vec3{1, 2, 3}));
 }
 
 } // namespace

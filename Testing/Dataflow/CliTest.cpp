@@ -1,0 +1,137 @@
+// The `tetflow` command line: exit codes, messages, --set, --report, validate, describe.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+
+#include "Algorithms/IO/FileUtil.h"
+#include "TestUtil.h"
+
+namespace {
+
+struct Result {
+  int code;
+  std::string out; // stdout and stderr together
+};
+
+Result run(const std::string& args) {
+  const std::string cmd = std::string(TETFLOW_CLI) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  Result r{-1, ""};
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+void write(const std::string& path, const std::string& text) { tetflow::test::writeBytes(path, text); }
+
+const char* kNet = R"(<?xml version="1.0"?>
+<network version="tetflow-1">
+  <modules>
+    <module id="m1" name="CreatePhantom">
+      <var name="kind" val="{sphere}"/>
+      <var name="radius" val="{5}"/>
+      <var name="voxel_size" val="{1}"/>
+    </module>
+    <module id="m2" name="WriteVolume">
+      <var name="filename" val="{out/sphere.nrrd}"/>
+    </module>
+  </modules>
+  <connections>
+    <connection id="c1" from="m1" fromport="0" to="m2" toport="0"/>
+  </connections>
+</network>
+)";
+
+} // namespace
+
+TEST(Cli, RunSucceedsPrintsOneLinePerModuleAndWritesRelativeToTheNet) {
+  tetflow::test::TempDir tmp;
+  std::filesystem::create_directory(tmp.path() / "out");
+  write(tmp.file("n.srn"), kNet);
+  const Result r = run("run " + tmp.file("n.srn") + " --report " + tmp.file("r.json"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("m1    CreatePhantom          done"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("dims=19 x 19 x 19"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("m2    WriteVolume            done"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(tmp.path() / "out" / "sphere.nrrd"));
+  const auto json = tetflow::readFileBytes(tmp.file("r.json"));
+  const std::string js(json.begin(), json.end());
+  EXPECT_NE(js.find("\"success\": true"), std::string::npos);
+  EXPECT_NE(js.find("\"label_1_voxels\""), std::string::npos);
+  // SCIRun's spelling, --set, --threads and --quiet.
+  const Result e = run("-E " + tmp.file("n.srn") + " --set m1.radius=6 --threads 1 --quiet");
+  EXPECT_EQ(e.code, 0) << e.out;
+  EXPECT_EQ(e.out, "");
+}
+
+TEST(Cli, ModuleFailureExitsOneAndSkipsDownstream) {
+  tetflow::test::TempDir tmp;
+  write(tmp.file("n.srn"), kNet); // no out/ folder: the write fails
+  const Result r = run("run " + tmp.file("n.srn"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("m2    WriteVolume            error"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("does not exist"), std::string::npos) << r.out;
+}
+
+TEST(Cli, BadSetValuesAndLoadErrorsExitThree) {
+  tetflow::test::TempDir tmp;
+  write(tmp.file("n.srn"), kNet);
+  Result r = run("run " + tmp.file("n.srn") + " --set m1.radius=abc");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.out.find("m1.radius=abc"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not a number"), std::string::npos) << r.out;
+  r = run("run " + tmp.file("n.srn") + " --set m7.radius=1");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.out.find("no module with id 'm7'"), std::string::npos) << r.out;
+  r = run("run " + tmp.file("n.srn") + " --set radius");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.out.find("ID.PARAM=VALUE"), std::string::npos);
+  r = run("run " + tmp.file("missing.srn"));
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.out.find("missing.srn: file not found"), std::string::npos) << r.out;
+  const std::string scirun = std::string(TETFLOW_SHARED_DIR) + "/reference/scirun4-example.srn";
+  r = run("validate " + scirun);
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.out.find("module m19: unknown module 'ViewScene' (package SCIRun)"), std::string::npos) << r.out;
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+  EXPECT_EQ(run("").code, 2);
+  EXPECT_EQ(run("frobnicate").code, 2);
+  EXPECT_EQ(run("run").code, 2);
+  EXPECT_EQ(run("run a.srn --threads zero").code, 2);
+  EXPECT_EQ(run("run a.srn --bogus").code, 2);
+  EXPECT_EQ(run("describe NoSuchModule").code, 2);
+}
+
+TEST(Cli, ValidateListAndDescribe) {
+  tetflow::test::TempDir tmp;
+  write(tmp.file("n.srn"), kNet);
+  Result r = run("validate " + tmp.file("n.srn"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("valid (2 modules, 1 connections)"), std::string::npos);
+  r = run("list-modules");
+  EXPECT_EQ(r.code, 0);
+  for (const char* m : {"CreatePhantom", "ReadLabelVolume", "WriteMesh", "ReadMesh", "WriteVolume"})
+    EXPECT_NE(r.out.find(m), std::string::npos) << m;
+  r = run("describe CreatePhantom");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("voxel_size"), std::string::npos);
+  EXPECT_NE(r.out.find("two_spheres"), std::string::npos);
+}
+
+TEST(Cli, ReportPathIsCheckedBeforeRunning) {
+  tetflow::test::TempDir tmp;
+  std::filesystem::create_directory(tmp.path() / "out");
+  write(tmp.file("n.srn"), kNet);
+  const Result r = run("run " + tmp.file("n.srn") + " --report " + tmp.file("nodir/r.json"));
+  EXPECT_EQ(r.code, 4) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path() / "out" / "sphere.nrrd"));
+}
