@@ -420,6 +420,98 @@ TEST(MeshIOVtk, TruncatedVtk) {
   expectTruncationsRefused(full, full.size() - 2, dir.file("cut.vtk"));
 }
 
+// Damaged sizes that made VTK 9.1 crash or throw inside its readers must become InputError.
+TEST(MeshIOVtk, CorruptedLegacyCellBlock) {
+  TempDir dir;
+  writeMesh(dir.file("good.vtk"), cubeMesh());
+  const std::string full = readText(dir.file("good.vtk"));
+  const size_t line = full.find("\nCELLS ");
+  ASSERT_NE(line, std::string::npos);
+  const size_t data = full.find('\n', line + 1) + 1;
+  // 4.2 layout "npts id id id id": a huge npts made vtkCellArray::AppendLegacyFormat segfault.
+  std::string bad = full;
+  bad[data] = '\x7f';
+  const std::string path = dir.file("bad.vtk");
+  test::writeBytes(path, bad);
+  EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str(), "CELLS", "cell 0");
+  // Fewer cell types than cells made VTK read past its type buffer.
+  std::string fewer = full;
+  const size_t types = fewer.find("\nCELL_TYPES 6\n");
+  ASSERT_NE(types, std::string::npos);
+  fewer.replace(types, 14, "\nCELL_TYPES 2\n");
+  test::writeBytes(path, fewer);
+  EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str(), "CELL_TYPES");
+  // Absurd point count.
+  std::string huge = full;
+  const size_t pts = huge.find("POINTS 8 double");
+  ASSERT_NE(pts, std::string::npos);
+  huge.replace(pts, 15, "POINTS 800000000000 double");
+  test::writeBytes(path, huge);
+  EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str(), "POINTS");
+}
+
+TEST(MeshIOVtk, CorruptedVtuCompressionHeader) {
+  TempDir dir;
+  writeMesh(dir.file("good.vtu"), cubeMesh());
+  std::string full = readText(dir.file("good.vtu"));
+  const size_t data = full.find("encoding=\"raw\"");
+  ASSERT_NE(data, std::string::npos);
+  const size_t underscore = full.find('_', data);
+  ASSERT_NE(underscore, std::string::npos);
+  // First header word of the first array = number of compressed blocks (UInt64).
+  for (size_t k = 1; k <= 8; ++k) full[underscore + k] = '\xff';
+  const std::string path = dir.file("bad.vtu");
+  test::writeBytes(path, full);
+  EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str());
+}
+
+// Deterministic corruption (byte changes, cuts, garbage runs, header digits): every result is
+// a mesh or an InputError; anything else (another exception, a crash) fails.
+TEST(MeshIOVtk, CorruptedFilesNeverEscapeAsOtherErrors) {
+  TempDir dir;
+  std::mt19937 rng(2024);
+  for (const char* ext : {".vtu", ".vtk"}) {
+    const std::string good = dir.file(std::string("good") + ext);
+    writeMesh(good, randomMesh(51));
+    const std::string src = readText(good);
+    const std::string path = dir.file(std::string("fuzz") + ext);
+    int refused = 0;
+    for (int i = 0; i < 120; ++i) {
+      std::string b = src;
+      auto pick = [&](size_t n) { return static_cast<size_t>(rng() % n); };
+      switch (i % 4) {
+      case 0:
+        for (int k = 0, n = 1 + static_cast<int>(rng() % 8); k < n; ++k)
+          b[pick(b.size())] = static_cast<char>(rng() & 0xff);
+        break;
+      case 1: b.resize(pick(b.size())); break;
+      case 2: {
+        const size_t p = pick(b.size());
+        for (size_t k = p; k < std::min(b.size(), p + 1 + pick(64)); ++k)
+          b[k] = static_cast<char>(rng() & 0xff);
+        break;
+      }
+      default: {
+        std::vector<size_t> digits;
+        for (size_t k = 0; k < std::min<size_t>(b.size(), 4000); ++k)
+          if (b[k] >= '0' && b[k] <= '9') digits.push_back(k);
+        for (int k = 0; k < 3 && !digits.empty(); ++k)
+          b[digits[pick(digits.size())]] = static_cast<char>('0' + rng() % 10);
+      }
+      }
+      test::writeBytes(path, b);
+      try {
+        const TetMesh m = readMesh(path);
+        for (size_t t = 0; t < m.numTets(); ++t) EXPECT_GE(m.tetVolume(t), 0.0);
+      } catch (const InputError& e) {
+        ++refused;
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      }
+    }
+    EXPECT_GT(refused, 30) << ext;
+  }
+}
+
 TEST(MeshIOVtk, ReservedAndEmptyFieldNames) {
   TempDir dir;
   TetMesh m = cubeMesh();
