@@ -10,6 +10,7 @@ void registerStandardModules(ModuleRegistry& r) {
   registerWriteVolume(r);
   registerReadMesh(r);
   registerWriteMesh(r);
+  registerEvaluateQuality(r);
 }
 
 void reportLabelVolume(Report& report, const LabelVolume& v) {

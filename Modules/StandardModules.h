@@ -13,6 +13,7 @@ void registerReadLabelVolume(ModuleRegistry& r);
 void registerWriteVolume(ModuleRegistry& r);
 void registerReadMesh(ModuleRegistry& r);
 void registerWriteMesh(ModuleRegistry& r);
+void registerEvaluateQuality(ModuleRegistry& r);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);

@@ -1,0 +1,1067 @@
+#include "Cleaver.h"
+
+#include <Eigen/Dense>
+#include <omp.h>
+#include <parallel/algorithm>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <sstream>
+#include <unordered_map>
+
+#include "Algorithms/Core/Errors.h"
+
+namespace tetflow {
+
+namespace {
+
+// ---- references to interface points -----------------------------------------------------
+
+constexpr uint8_t kVertex = 0, kCut = 1, kTriple = 2, kQuad = 3, kNone = 4;
+
+struct Ref {
+  uint8_t kind = kNone;
+  int32_t index = -1;
+  bool operator==(const Ref&) const = default;
+  bool none() const { return kind == kNone; }
+};
+
+// Local numbering inside a tet (vertices 0..3).
+constexpr int kEdgeVerts[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+constexpr int kFaceVerts[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}}; // opposite i
+
+int localEdge(int a, int b) {
+  if (a > b) std::swap(a, b);
+  for (int e = 0; e < 6; ++e)
+    if (kEdgeVerts[e][0] == a && kEdgeVerts[e][1] == b) return e;
+  return -1;
+}
+
+bool faceHasVertex(int lf, int lv) { return lf != lv; }
+bool edgeHasVertex(int le, int lv) { return kEdgeVerts[le][0] == lv || kEdgeVerts[le][1] == lv; }
+bool faceHasEdge(int lf, int le) { return !edgeHasVertex(le, lf); }
+
+// The 24 flags (vertex in edge in face) of the generalized stencil, with the corner order that
+// gives positive orientation for a positively oriented background tet.
+struct Flag {
+  int v, e, f;
+  bool swapVE; // emit (cut, vertex, triple, quad) instead of (vertex, cut, triple, quad)
+};
+
+std::vector<Flag> buildFlags() {
+  const Vec3 ref[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const Vec3 centre = 0.25 * (ref[0] + ref[1] + ref[2] + ref[3]);
+  std::vector<Flag> flags;
+  for (int f = 0; f < 4; ++f)
+    for (int e = 0; e < 6; ++e) {
+      if (!faceHasEdge(f, e)) continue;
+      for (int k = 0; k < 2; ++k) {
+        const int v = kEdgeVerts[e][k];
+        const Vec3 pe = 0.5 * (ref[kEdgeVerts[e][0]] + ref[kEdgeVerts[e][1]]);
+        const Vec3 pf = (1.0 / 3.0) * (ref[kFaceVerts[f][0]] + ref[kFaceVerts[f][1]] + ref[kFaceVerts[f][2]]);
+        const double vol = signedTetVolume(ref[v], pe, pf, centre);
+        flags.push_back({v, e, f, vol < 0});
+      }
+    }
+  return flags;
+}
+
+double alphaFraction(double a) { return std::clamp(a, 0.0, 0.49); }
+
+class Cleaver {
+public:
+  Cleaver(const BackgroundMesh& bg, const MaterialSet& mats, const CleaveParams& p, Progress& progress)
+      : bg_(bg), m_(bg.mesh), mats_(mats), p_(p), progress_(progress), flags_(buildFlags()) {}
+
+  CleaveResult run();
+
+private:
+  // ---- state ----
+  const BackgroundMesh& bg_;
+  const TetMesh& m_;
+  const MaterialSet& mats_;
+  const CleaveParams& p_;
+  Progress& progress_;
+  const std::vector<Flag> flags_;
+  CleaveStats stats_;
+
+  std::vector<Vec3> pos_;            // current (warped) vertex positions
+  std::vector<int32_t> label_;       // dense material index per vertex
+  std::vector<int64_t> sampleStart_; // CSR into samples_
+  std::vector<MaterialSample> samples_;
+  std::vector<uint8_t> warped_;
+  std::unordered_map<int32_t, std::vector<MaterialSample>> resampled_;
+  std::vector<float> vertexAlpha_; // unstructured: absolute alpha (mm)
+
+  std::vector<int32_t> itet_;                    // interface tet -> background tet
+  std::vector<int32_t> bgToInterface_;           // background tet -> interface tet or -1
+  std::vector<std::array<int32_t, 6>> tetEdge_;  // interface tet -> edges
+  std::vector<std::array<int32_t, 4>> tetFace_;  // interface tet -> faces
+  std::vector<std::array<int32_t, 2>> edgeV_;    // sorted vertex ids
+  std::vector<std::array<int32_t, 3>> faceV_;    // sorted vertex ids
+
+  std::vector<float> cutT_; // parameter from edgeV_[e][0]
+  std::vector<Ref> cutAlias_;
+  std::vector<uint8_t> cutReal_;
+  std::vector<std::array<float, 3>> triB_; // barycentric over faceV_
+  std::vector<Ref> triAlias_;
+  std::vector<uint8_t> triReal_;
+  // A face whose three cuts all sit on vertices is a single output triangle wherever its triple
+  // sits among its vertices, so each tet may view that triple at a vertex of its own choosing
+  // (only the material of the cone tets depends on it). -1 = use the shared triple.
+  std::vector<std::array<int32_t, 4>> triOverride_;
+  std::vector<std::array<float, 4>> quadB_; // barycentric over the background tet's vertices
+  std::vector<Ref> quadAlias_;
+  std::vector<uint8_t> quadReal_;
+
+  // CSR adjacency (interface tets only)
+  std::vector<int64_t> vtStart_, etStart_, ftStart_;
+  std::vector<int32_t> vtList_, etList_, ftList_;
+
+  // ---- helpers ----
+  const TetMesh::Tet& tv(int32_t t) const { return m_.tets[static_cast<size_t>(itet_[t])]; }
+  int localVertex(int32_t t, int32_t v) const {
+    const auto& q = tv(t);
+    for (int i = 0; i < 4; ++i)
+      if (q[i] == v) return i;
+    return -1;
+  }
+
+  float value(int32_t v, int32_t mat) const {
+    const MaterialSample* b;
+    const MaterialSample* e;
+    if (warped_[v]) {
+      const auto& s = resampled_.at(v);
+      b = s.data();
+      e = s.data() + s.size();
+    } else {
+      b = samples_.data() + sampleStart_[v];
+      e = samples_.data() + sampleStart_[v + 1];
+    }
+    for (const MaterialSample* s = b; s != e; ++s)
+      if (s->material == mat) return s->value;
+    return mats_.absentValue();
+  }
+
+  double alphaAt(int32_t x, int32_t y) const {
+    if (!bg_.kind.empty()) {
+      const auto kx = bg_.kind[x], ky = bg_.kind[y];
+      if (kx == LatticeVertexKind::FaceCentre || ky == LatticeVertexKind::FaceCentre || kx == ky)
+        return alphaFraction(p_.alpha_long);
+      return alphaFraction(p_.alpha_short);
+    }
+    const double len = norm(m_.points[x] - m_.points[y]);
+    return len > 0 ? alphaFraction(vertexAlpha_[y] / len) : 0.0;
+  }
+  // "x is negligible next to y": the violation half-space test of §4.6.
+  bool negl(int32_t x, int32_t y, double lx, double ly) const {
+    const double a = alphaAt(x, y);
+    return lx * (1.0 - a) < a * ly || lx <= 1e-9;
+  }
+
+  Ref resolve(Ref r) const {
+    for (;;) {
+      switch (r.kind) {
+        case kCut:
+          if (cutAlias_[r.index].none()) return r;
+          r = cutAlias_[r.index];
+          break;
+        case kTriple:
+          if (triAlias_[r.index].none()) return r;
+          r = triAlias_[r.index];
+          break;
+        case kQuad:
+          if (quadAlias_[r.index].none()) return r;
+          r = quadAlias_[r.index];
+          break;
+        default: return r;
+      }
+    }
+  }
+  Vec3 positionOf(Ref r) const {
+    r = resolve(r);
+    switch (r.kind) {
+      case kVertex: return pos_[r.index];
+      case kCut: {
+        const auto& e = edgeV_[r.index];
+        const double t = cutT_[r.index];
+        return (1.0 - t) * pos_[e[0]] + t * pos_[e[1]];
+      }
+      case kTriple: {
+        const auto& f = faceV_[r.index];
+        const auto& b = triB_[r.index];
+        return double(b[0]) * pos_[f[0]] + double(b[1]) * pos_[f[1]] + double(b[2]) * pos_[f[2]];
+      }
+      case kQuad: {
+        const auto& q = tv(r.index);
+        const auto& b = quadB_[r.index];
+        return double(b[0]) * pos_[q[0]] + double(b[1]) * pos_[q[1]] + double(b[2]) * pos_[q[2]] +
+               double(b[3]) * pos_[q[3]];
+      }
+    }
+    return {0, 0, 0};
+  }
+  void setAlias(Ref r, Ref target) {
+    switch (r.kind) {
+      case kCut: cutAlias_[r.index] = target; break;
+      case kTriple: triAlias_[r.index] = target; break;
+      case kQuad: quadAlias_[r.index] = target; break;
+      default: break;
+    }
+  }
+
+  // ---- violation tests ----
+  bool cutViolates(int32_t e, int end) const { // end 0/1: the vertex edgeV_[e][end]
+    const auto& v = edgeV_[e];
+    const double t = cutT_[e];
+    return end == 0 ? negl(v[1], v[0], t, 1.0 - t) : negl(v[0], v[1], 1.0 - t, t);
+  }
+  // Point with barycentrics b over vertices vs violates the sub-simplex given by mask `in`.
+  template <int N>
+  bool violates(const std::array<int32_t, N>& vs, const std::array<float, N>& b, unsigned in) const {
+    for (int y = 0; y < N; ++y) {
+      if (!(in >> y & 1u)) continue;
+      for (int x = 0; x < N; ++x)
+        if (!(in >> x & 1u) && !negl(vs[x], vs[y], b[x], b[y])) return false;
+    }
+    return true;
+  }
+  bool triViolates(int32_t f, unsigned mask) const { return violates<3>(faceV_[f], triB_[f], mask); }
+  bool quadViolates(int32_t t, unsigned mask) const {
+    const auto& q = tv(t);
+    return violates<4>({q[0], q[1], q[2], q[3]}, quadB_[t], mask);
+  }
+  unsigned faceMask(int32_t f, int32_t v) const {
+    for (int i = 0; i < 3; ++i)
+      if (faceV_[f][i] == v) return 1u << i;
+    return 0;
+  }
+
+  // ---- interface point computation (linear interpolation of sampled values) ----
+  void computeCut(int32_t e) {
+    const auto& v = edgeV_[e];
+    const int32_t la = label_[v[0]], lb = label_[v[1]];
+    const double ga = double(value(v[0], la)) - value(v[0], lb);
+    const double gb = double(value(v[1], la)) - value(v[1], lb);
+    double t;
+    if (ga <= 0) t = 0.0;
+    else if (gb >= 0) t = 1.0;
+    else t = ga / (ga - gb);
+    cutT_[e] = static_cast<float>(std::clamp(t, 0.0, 1.0));
+  }
+  template <int N>
+  static void projectBarycentric(std::array<float, N>& b) {
+    double s = 0;
+    for (auto& x : b) {
+      if (!(x > 0)) x = 0;
+      s += x;
+    }
+    if (!(s > 0)) {
+      for (auto& x : b) x = 1.0f / N;
+      return;
+    }
+    for (auto& x : b) x = static_cast<float>(x / s);
+  }
+  void computeTriple(int32_t f) {
+    const auto& v = faceV_[f];
+    const int32_t l[3] = {label_[v[0]], label_[v[1]], label_[v[2]]};
+    Eigen::Matrix3d A;
+    for (int x = 0; x < 3; ++x) {
+      A(0, x) = double(value(v[x], l[0])) - value(v[x], l[1]);
+      A(1, x) = double(value(v[x], l[0])) - value(v[x], l[2]);
+      A(2, x) = 1.0;
+    }
+    const double scale = A.block<2, 3>(0, 0).cwiseAbs().maxCoeff();
+    std::array<float, 3> b;
+    if (scale > 0 && std::abs(A.determinant()) > 1e-9 * scale * scale) {
+      const Eigen::Vector3d x = A.partialPivLu().solve(Eigen::Vector3d(0, 0, 1));
+      b = {float(x[0]), float(x[1]), float(x[2])};
+    } else {
+      b = {1.0f / 3, 1.0f / 3, 1.0f / 3};
+    }
+    projectBarycentric<3>(b);
+    triB_[f] = b;
+  }
+  void computeQuad(int32_t t) {
+    const auto& q = tv(t);
+    const int32_t l[4] = {label_[q[0]], label_[q[1]], label_[q[2]], label_[q[3]]};
+    Eigen::Matrix4d A;
+    for (int x = 0; x < 4; ++x) {
+      for (int r = 0; r < 3; ++r) A(r, x) = double(value(q[x], l[0])) - value(q[x], l[r + 1]);
+      A(3, x) = 1.0;
+    }
+    const double scale = A.block<3, 4>(0, 0).cwiseAbs().maxCoeff();
+    std::array<float, 4> b;
+    if (scale > 0 && std::abs(A.determinant()) > 1e-9 * scale * scale * scale) {
+      const Eigen::Vector4d x = A.partialPivLu().solve(Eigen::Vector4d(0, 0, 0, 1));
+      b = {float(x[0]), float(x[1]), float(x[2]), float(x[3])};
+    } else {
+      b = {0.25f, 0.25f, 0.25f, 0.25f};
+    }
+    projectBarycentric<4>(b);
+    quadB_[t] = b;
+  }
+
+  // ---- stages ----
+  void sample();
+  void buildInterfaces();
+  void computeVertexAlphas();
+  void phaseVertices();
+  void phaseEdges();
+  void phaseFaces();
+  void generalize();
+  void closure();
+  CleaveResult stencil();
+
+  // closure helpers
+  std::deque<std::pair<uint8_t, int32_t>> work_;
+  std::vector<uint8_t> faceQueued_, tetQueued_;
+  void pushFace(int32_t f) {
+    if (!faceQueued_[f]) {
+      faceQueued_[f] = 1;
+      work_.emplace_back(kTriple, f);
+    }
+  }
+  void pushTet(int32_t t) {
+    if (!tetQueued_[t]) {
+      tetQueued_[t] = 1;
+      work_.emplace_back(kQuad, t);
+    }
+  }
+  void cutChanged(int32_t e) {
+    for (int64_t i = etStart_[e]; i < etStart_[e + 1]; ++i) {
+      const int32_t t = etList_[i];
+      pushTet(t);
+      for (int lf = 0; lf < 4; ++lf) {
+        const int32_t f = tetFace_[t][lf];
+        const auto& fv = faceV_[f];
+        const auto& ev = edgeV_[e];
+        const bool has = (fv[0] == ev[0] || fv[1] == ev[0] || fv[2] == ev[0]) &&
+                         (fv[0] == ev[1] || fv[1] == ev[1] || fv[2] == ev[1]);
+        if (has) pushFace(f);
+      }
+    }
+  }
+  void tripleChanged(int32_t f) {
+    pushFace(f);
+    for (int64_t i = ftStart_[f]; i < ftStart_[f + 1]; ++i) pushTet(ftList_[i]);
+  }
+  void checkFace(int32_t f);
+  void checkTet(int32_t t);
+  void placeVirtualQuad(int32_t t);
+  void releaseQuad(int32_t t);
+  int32_t faceEdge(int32_t f, int32_t a, int32_t b) const; // edge id of (a,b) in a tet holding f
+  bool cutsOnVertices(int32_t t, int lf) const {
+    for (int le = 0; le < 6; ++le)
+      if (faceHasEdge(lf, le) && resolve({kCut, tetEdge_[t][le]}).kind != kVertex) return false;
+    return true;
+  }
+  // The triple of face lf as tet t sees it.
+  Ref tripleSeen(int32_t t, int lf) const {
+    const int32_t o = triOverride_[t][lf];
+    return o >= 0 ? Ref{kVertex, o} : resolve({kTriple, tetFace_[t][lf]});
+  }
+};
+
+void Cleaver::sample() {
+  progress_.beginStage("sample");
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  pos_ = m_.points;
+  label_.assign(static_cast<size_t>(nv), 0);
+  warped_.assign(static_cast<size_t>(nv), 0);
+  std::vector<int64_t> counts(static_cast<size_t>(nv) + 1, 0);
+  const int64_t block = 4096;
+  const int64_t nBlocks = (nv + block - 1) / block;
+  std::vector<std::vector<MaterialSample>> blockSamples(static_cast<size_t>(nBlocks));
+#pragma omp parallel
+  {
+    std::vector<MaterialSample> s;
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t bi = 0; bi < nBlocks; ++bi) {
+      auto& out = blockSamples[static_cast<size_t>(bi)];
+      for (int64_t v = bi * block; v < std::min(nv, (bi + 1) * block); ++v) {
+        mats_.sample(pos_[v], s);
+        int32_t best = s.empty() ? 0 : s[0].material;
+        float bestV = s.empty() ? 0.0f : s[0].value;
+        for (const auto& x : s)
+          if (x.value > bestV) { // strict: ties keep the lower material index
+            best = x.material;
+            bestV = x.value;
+          }
+        label_[v] = best;
+        counts[v + 1] = static_cast<int64_t>(s.size());
+        out.insert(out.end(), s.begin(), s.end());
+      }
+      if (bi % 64 == 0) {
+        progress_.report(double(bi) / double(nBlocks));
+        progress_.checkCancel();
+      }
+    }
+  }
+  sampleStart_.assign(static_cast<size_t>(nv) + 1, 0);
+  for (int64_t v = 0; v < nv; ++v) sampleStart_[v + 1] = sampleStart_[v] + counts[v + 1];
+  samples_.clear();
+  samples_.reserve(static_cast<size_t>(sampleStart_[nv]));
+  for (auto& b : blockSamples) {
+    samples_.insert(samples_.end(), b.begin(), b.end());
+    std::vector<MaterialSample>().swap(b);
+  }
+}
+
+void Cleaver::buildInterfaces() {
+  progress_.beginStage("interfaces");
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  bgToInterface_.assign(static_cast<size_t>(nt), -1);
+  for (int64_t t = 0; t < nt; ++t) {
+    const auto& q = m_.tets[t];
+    const int32_t l0 = label_[q[0]];
+    if (label_[q[1]] != l0 || label_[q[2]] != l0 || label_[q[3]] != l0) {
+      bgToInterface_[t] = static_cast<int32_t>(itet_.size());
+      itet_.push_back(static_cast<int32_t>(t));
+    }
+  }
+  const int64_t ni = static_cast<int64_t>(itet_.size());
+  stats_.interfaceTets = ni;
+  // Unique edges and faces of interface tets.
+  std::vector<uint64_t> ekeys(static_cast<size_t>(ni) * 6);
+  std::vector<std::array<int32_t, 3>> fkeys(static_cast<size_t>(ni) * 4);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < ni; ++t) {
+    const auto& q = tv(static_cast<int32_t>(t));
+    for (int e = 0; e < 6; ++e) {
+      uint32_t a = static_cast<uint32_t>(q[kEdgeVerts[e][0]]), b = static_cast<uint32_t>(q[kEdgeVerts[e][1]]);
+      if (a > b) std::swap(a, b);
+      ekeys[t * 6 + e] = (uint64_t(a) << 32) | b;
+    }
+    for (int f = 0; f < 4; ++f) {
+      std::array<int32_t, 3> k = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
+      std::sort(k.begin(), k.end());
+      fkeys[t * 4 + f] = k;
+    }
+  }
+  std::vector<uint64_t> eu = ekeys;
+  __gnu_parallel::sort(eu.begin(), eu.end());
+  eu.erase(std::unique(eu.begin(), eu.end()), eu.end());
+  std::vector<std::array<int32_t, 3>> fu = fkeys;
+  __gnu_parallel::sort(fu.begin(), fu.end());
+  fu.erase(std::unique(fu.begin(), fu.end()), fu.end());
+  edgeV_.resize(eu.size());
+  for (size_t e = 0; e < eu.size(); ++e)
+    edgeV_[e] = {static_cast<int32_t>(eu[e] >> 32), static_cast<int32_t>(eu[e] & 0xffffffffu)};
+  faceV_ = fu;
+  tetEdge_.resize(static_cast<size_t>(ni));
+  tetFace_.resize(static_cast<size_t>(ni));
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < ni; ++t) {
+    for (int e = 0; e < 6; ++e)
+      tetEdge_[t][e] = static_cast<int32_t>(std::lower_bound(eu.begin(), eu.end(), ekeys[t * 6 + e]) - eu.begin());
+    for (int f = 0; f < 4; ++f)
+      tetFace_[t][f] = static_cast<int32_t>(std::lower_bound(fu.begin(), fu.end(), fkeys[t * 4 + f]) - fu.begin());
+  }
+  std::vector<uint64_t>().swap(ekeys);
+  std::vector<std::array<int32_t, 3>>().swap(fkeys);
+
+  // CSR adjacency: vertex -> tets, edge -> tets, face -> tets.
+  auto buildCsr = [&](size_t n, int per, auto key, std::vector<int64_t>& start, std::vector<int32_t>& list) {
+    start.assign(n + 1, 0);
+    for (int64_t t = 0; t < ni; ++t)
+      for (int k = 0; k < per; ++k) ++start[static_cast<size_t>(key(t, k)) + 1];
+    for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+    list.resize(static_cast<size_t>(start[n]));
+    std::vector<int64_t> fill(start.begin(), start.end() - 1);
+    for (int64_t t = 0; t < ni; ++t)
+      for (int k = 0; k < per; ++k) list[fill[key(t, k)]++] = static_cast<int32_t>(t);
+  };
+  buildCsr(m_.points.size(), 4, [&](int64_t t, int k) { return tv(static_cast<int32_t>(t))[k]; }, vtStart_, vtList_);
+  buildCsr(edgeV_.size(), 6, [&](int64_t t, int k) { return tetEdge_[t][k]; }, etStart_, etList_);
+  buildCsr(faceV_.size(), 4, [&](int64_t t, int k) { return tetFace_[t][k]; }, ftStart_, ftList_);
+
+  // Real interface points.
+  const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
+  cutT_.assign(static_cast<size_t>(ne), 0.5f);
+  cutAlias_.assign(static_cast<size_t>(ne), Ref{});
+  cutReal_.assign(static_cast<size_t>(ne), 0);
+  triB_.assign(static_cast<size_t>(nf), {1.0f / 3, 1.0f / 3, 1.0f / 3});
+  triAlias_.assign(static_cast<size_t>(nf), Ref{});
+  triReal_.assign(static_cast<size_t>(nf), 0);
+  triOverride_.assign(static_cast<size_t>(ni), {-1, -1, -1, -1});
+  quadB_.assign(static_cast<size_t>(ni), {0.25f, 0.25f, 0.25f, 0.25f});
+  quadAlias_.assign(static_cast<size_t>(ni), Ref{});
+  quadReal_.assign(static_cast<size_t>(ni), 0);
+  int64_t nc = 0, ntr = 0, nq = 0;
+#pragma omp parallel for schedule(static) reduction(+ : nc)
+  for (int64_t e = 0; e < ne; ++e)
+    if (label_[edgeV_[e][0]] != label_[edgeV_[e][1]]) {
+      cutReal_[e] = 1;
+      computeCut(static_cast<int32_t>(e));
+      ++nc;
+    }
+#pragma omp parallel for schedule(static) reduction(+ : ntr)
+  for (int64_t f = 0; f < nf; ++f) {
+    const auto& v = faceV_[f];
+    const int32_t a = label_[v[0]], b = label_[v[1]], c = label_[v[2]];
+    if (a != b && a != c && b != c) {
+      triReal_[f] = 1;
+      computeTriple(static_cast<int32_t>(f));
+      ++ntr;
+    }
+  }
+#pragma omp parallel for schedule(static) reduction(+ : nq)
+  for (int64_t t = 0; t < ni; ++t) {
+    const auto& q = tv(static_cast<int32_t>(t));
+    const int32_t l[4] = {label_[q[0]], label_[q[1]], label_[q[2]], label_[q[3]]};
+    if (l[0] != l[1] && l[0] != l[2] && l[0] != l[3] && l[1] != l[2] && l[1] != l[3] && l[2] != l[3]) {
+      quadReal_[t] = 1;
+      computeQuad(static_cast<int32_t>(t));
+      ++nq;
+    }
+  }
+  stats_.cuts = nc;
+  stats_.triples = ntr;
+  stats_.quadruples = nq;
+  progress_.checkCancel();
+}
+
+void Cleaver::computeVertexAlphas() {
+  if (!bg_.kind.empty()) return;
+  // §5.5.2: alpha_i = (1/2 - xi) * (shortest altitude of the tets around vertex i).
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  std::vector<float> minAlt(static_cast<size_t>(nv), std::numeric_limits<float>::max());
+  for (const auto& q : m_.tets) {
+    const double vol6 = std::abs(6.0 * signedTetVolume(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]]));
+    double h = std::numeric_limits<double>::max();
+    for (int f = 0; f < 4; ++f) {
+      const Vec3& a = m_.points[q[kFaceVerts[f][0]]];
+      const Vec3& b = m_.points[q[kFaceVerts[f][1]]];
+      const Vec3& c = m_.points[q[kFaceVerts[f][2]]];
+      const double area2 = norm(cross(b - a, c - a));
+      if (area2 > 0) h = std::min(h, vol6 / area2);
+    }
+    for (int i = 0; i < 4; ++i) minAlt[q[i]] = std::min(minAlt[q[i]], static_cast<float>(h));
+  }
+  vertexAlpha_.resize(static_cast<size_t>(nv));
+  for (int64_t v = 0; v < nv; ++v)
+    vertexAlpha_[v] = minAlt[v] == std::numeric_limits<float>::max() ? 0.0f
+                                                                      : static_cast<float>((0.5 - p_.xi) * minAlt[v]);
+}
+
+void Cleaver::phaseVertices() {
+  progress_.beginStage("snap/warp vertices");
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  std::vector<uint8_t> visited(static_cast<size_t>(nv), 0);
+  std::vector<int32_t> edgeStamp(edgeV_.size(), -1), faceStamp(faceV_.size(), -1);
+  std::vector<Ref> viol;
+  std::vector<MaterialSample> s;
+  int64_t done = 0;
+  for (int32_t v = 0; v < nv; ++v) {
+    if (vtStart_[v] == vtStart_[v + 1]) continue;
+    if (++done % 4096 == 0) progress_.checkCancel();
+    viol.clear();
+    const int32_t stampA = 2 * v, stampB = 2 * v + 1;
+    for (int64_t i = vtStart_[v]; i < vtStart_[v + 1]; ++i) {
+      const int32_t t = vtList_[i];
+      const int lv = localVertex(t, v);
+      for (int le = 0; le < 6; ++le) {
+        if (!edgeHasVertex(le, lv)) continue;
+        const int32_t e = tetEdge_[t][le];
+        if (edgeStamp[e] == stampA) continue;
+        edgeStamp[e] = stampA;
+        if (cutReal_[e] && cutAlias_[e].none() && cutViolates(e, edgeV_[e][0] == v ? 0 : 1))
+          viol.push_back({kCut, e});
+      }
+      for (int lf = 0; lf < 4; ++lf) {
+        if (!faceHasVertex(lf, lv)) continue;
+        const int32_t f = tetFace_[t][lf];
+        if (faceStamp[f] == stampA) continue;
+        faceStamp[f] = stampA;
+        if (triReal_[f] && triAlias_[f].none() && triViolates(f, faceMask(f, v))) viol.push_back({kTriple, f});
+      }
+      if (quadReal_[t] && quadAlias_[t].none() && quadViolates(t, 1u << lv)) viol.push_back({kQuad, t});
+    }
+    visited[v] = 1;
+    if (viol.empty()) continue;
+    Vec3 c{0, 0, 0};
+    for (const Ref& r : viol) c = c + positionOf(r);
+    c = (1.0 / double(viol.size())) * c;
+    for (const Ref& r : viol) setAlias(r, Ref{kVertex, v});
+    stats_.snaps += static_cast<int64_t>(viol.size());
+    pos_[v] = c;
+    warped_[v] = 1;
+    ++stats_.warpedVertices;
+    mats_.sample(c, s);
+    resampled_[v] = s;
+    // Project the remaining interface points around v onto the surfaces at the new position.
+    for (int64_t i = vtStart_[v]; i < vtStart_[v + 1]; ++i) {
+      const int32_t t = vtList_[i];
+      const int lv = localVertex(t, v);
+      for (int le = 0; le < 6; ++le) {
+        if (!edgeHasVertex(le, lv)) continue;
+        const int32_t e = tetEdge_[t][le];
+        if (edgeStamp[e] == stampB) continue;
+        edgeStamp[e] = stampB;
+        if (!cutReal_[e] || !cutAlias_[e].none()) continue;
+        computeCut(e);
+        for (int end = 0; end < 2; ++end) {
+          const int32_t u = edgeV_[e][end];
+          if ((u == v || visited[u]) && cutViolates(e, end)) {
+            cutAlias_[e] = Ref{kVertex, u};
+            ++stats_.snaps;
+            break;
+          }
+        }
+      }
+      for (int lf = 0; lf < 4; ++lf) {
+        if (!faceHasVertex(lf, lv)) continue;
+        const int32_t f = tetFace_[t][lf];
+        if (faceStamp[f] == stampB) continue;
+        faceStamp[f] = stampB;
+        if (!triReal_[f] || !triAlias_[f].none()) continue;
+        computeTriple(f);
+        for (int k = 0; k < 3; ++k) {
+          const int32_t u = faceV_[f][k];
+          if ((u == v || visited[u]) && triViolates(f, 1u << k)) {
+            triAlias_[f] = Ref{kVertex, u};
+            ++stats_.snaps;
+            break;
+          }
+        }
+      }
+      if (quadReal_[t] && quadAlias_[t].none()) {
+        computeQuad(t);
+        const auto& q = tv(t);
+        for (int k = 0; k < 4; ++k)
+          if ((q[k] == v || visited[q[k]]) && quadViolates(t, 1u << k)) {
+            quadAlias_[t] = Ref{kVertex, q[k]};
+            ++stats_.snaps;
+            break;
+          }
+      }
+    }
+  }
+}
+
+void Cleaver::phaseEdges() {
+  progress_.beginStage("snap edges");
+  const int64_t ne = static_cast<int64_t>(edgeV_.size());
+  for (int32_t e = 0; e < ne; ++e) {
+    if (!cutReal_[e]) continue; // triples and quadruples only lie on faces/tets with real cuts
+    for (int64_t i = etStart_[e]; i < etStart_[e + 1]; ++i) {
+      const int32_t t = etList_[i];
+      const auto& q = tv(t);
+      const int la = localVertex(t, edgeV_[e][0]), lb = localVertex(t, edgeV_[e][1]);
+      for (int lf = 0; lf < 4; ++lf) {
+        if (lf == la || lf == lb) continue; // faces containing both ends
+        const int32_t f = tetFace_[t][lf];
+        if (triReal_[f] && triAlias_[f].none() &&
+            triViolates(f, faceMask(f, edgeV_[e][0]) | faceMask(f, edgeV_[e][1]))) {
+          triAlias_[f] = Ref{kCut, e};
+          ++stats_.snaps;
+        }
+      }
+      (void)q;
+      if (quadReal_[t] && quadAlias_[t].none() && quadViolates(t, (1u << la) | (1u << lb))) {
+        quadAlias_[t] = Ref{kCut, e};
+        ++stats_.snaps;
+      }
+    }
+  }
+}
+
+void Cleaver::phaseFaces() {
+  progress_.beginStage("snap faces");
+  const int64_t nf = static_cast<int64_t>(faceV_.size());
+  for (int32_t f = 0; f < nf; ++f) {
+    if (!triReal_[f]) continue;
+    for (int64_t i = ftStart_[f]; i < ftStart_[f + 1]; ++i) {
+      const int32_t t = ftList_[i];
+      int lf = -1;
+      for (int k = 0; k < 4; ++k)
+        if (tetFace_[t][k] == f) lf = k;
+      const unsigned mask = 0xFu & ~(1u << lf);
+      if (quadReal_[t] && quadAlias_[t].none() && quadViolates(t, mask)) {
+        quadAlias_[t] = Ref{kTriple, f};
+        ++stats_.snaps;
+      }
+    }
+  }
+}
+
+int32_t Cleaver::faceEdge(int32_t f, int32_t a, int32_t b) const {
+  const int32_t t = ftList_[ftStart_[f]];
+  const int la = localVertex(t, a), lb = localVertex(t, b);
+  return tetEdge_[t][localEdge(la, lb)];
+}
+
+void Cleaver::generalize() {
+  progress_.beginStage("generalize");
+  const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
+  // Virtual cuts go to the lower vertex id (§5.5.1).
+  for (int64_t e = 0; e < ne; ++e)
+    if (!cutReal_[e]) cutAlias_[e] = Ref{kVertex, edgeV_[e][0]};
+  // Virtual triples: the lowest-dimensional valid location, preferring the most collocated.
+  for (int32_t f = 0; f < nf; ++f) {
+    if (triReal_[f]) continue;
+    const auto& v = faceV_[f];
+    int32_t edges[3][3]; // per vertex k: the two edges of the face at v[k] (edge ids), and k
+    Ref best{};
+    int bestScore = -1;
+    for (int k = 0; k < 3; ++k) {
+      const int32_t w = v[k];
+      const int32_t e1 = faceEdge(f, w, v[(k + 1) % 3]), e2 = faceEdge(f, w, v[(k + 2) % 3]);
+      edges[k][0] = e1;
+      edges[k][1] = e2;
+      const Ref c1 = resolve({kCut, e1}), c2 = resolve({kCut, e2});
+      if (c1.kind != kVertex || c2.kind != kVertex) continue;
+      const int score = (c1.index == w) + (c2.index == w);
+      if (score > bestScore) {
+        bestScore = score;
+        best = Ref{kVertex, w};
+      }
+    }
+    if (best.none()) {
+      // An interior cut (always valid). Prefer the cut next to a vertex where another cut of
+      // the face went (the triple follows the virtual cut, §5.5.1 / Fig. 5.7); ties to the
+      // lower edge id.
+      int bestRank = -1;
+      for (int k = 0; k < 3; ++k)
+        for (int j = 0; j < 2; ++j) {
+          const int32_t e = edges[k][j];
+          const Ref c = resolve({kCut, e});
+          if (c.kind != kCut) continue;
+          const int32_t w = v[k];
+          const int32_t other = edges[k][1 - j];
+          const Ref co = resolve({kCut, other});
+          const int rank = (co == Ref{kVertex, w} ? 2 : 0) + (cutReal_[e] ? 1 : 0);
+          if (rank > bestRank || (rank == bestRank && e < best.index)) {
+            bestRank = rank;
+            best = Ref{kCut, e};
+          }
+        }
+    }
+    triAlias_[f] = best;
+  }
+}
+
+void Cleaver::placeVirtualQuad(int32_t t) {
+  const auto& q = tv(t);
+  // Candidates in order of the tet's vertex ids / edge ids / face ids (deterministic).
+  int order[4] = {0, 1, 2, 3};
+  std::sort(order, order + 4, [&](int a, int b) { return q[a] < q[b]; });
+  for (int lv : order) {
+    bool ok = true;
+    for (int lf = 0; lf < 4 && ok; ++lf)
+      if (lf != lv)
+        ok = tripleSeen(t, lf) == Ref{kVertex, q[lv]} ||
+             (tripleSeen(t, lf).kind == kVertex && cutsOnVertices(t, lf));
+    if (ok) {
+      quadAlias_[t] = Ref{kVertex, q[lv]};
+      return;
+    }
+  }
+  for (int le = 0; le < 6; ++le) {
+    const int32_t e = tetEdge_[t][le];
+    if (!(resolve({kCut, e}) == Ref{kCut, e})) continue;
+    bool ok = true;
+    for (int lf = 0; lf < 4 && ok; ++lf)
+      if (faceHasEdge(lf, le)) ok = resolve({kTriple, tetFace_[t][lf]}) == Ref{kCut, e};
+    if (ok) {
+      quadAlias_[t] = Ref{kCut, e};
+      return;
+    }
+  }
+  for (int lf = 0; lf < 4; ++lf) {
+    const int32_t f = tetFace_[t][lf];
+    if (resolve({kTriple, f}) == Ref{kTriple, f}) {
+      quadAlias_[t] = Ref{kTriple, f};
+      return;
+    }
+  }
+  releaseQuad(t);
+}
+
+void Cleaver::releaseQuad(int32_t t) {
+  // Free the quadruple inside its tet: at its computed position when that is well inside,
+  // otherwise at the centroid (a Steiner point).
+  quadAlias_[t] = Ref{};
+  const auto& b = quadB_[t];
+  const float minB = std::min(std::min(b[0], b[1]), std::min(b[2], b[3]));
+  if (!quadReal_[t] || minB < 0.05f) {
+    quadB_[t] = {0.25f, 0.25f, 0.25f, 0.25f};
+    ++stats_.steinerPoints;
+  }
+  quadReal_[t] = 1; // from now on a free point of its own
+}
+
+void Cleaver::checkFace(int32_t f) {
+  const Ref T = resolve({kTriple, f});
+  if (T.kind != kVertex) return;
+  const int32_t w = T.index;
+  const auto& v = faceV_[f];
+  for (int k = 0; k < 3; ++k) {
+    if (v[k] == w) continue;
+    const int32_t e = faceEdge(f, w, v[k]);
+    if (resolve({kCut, e}).kind == kCut) {
+      cutAlias_[e] = Ref{kVertex, w};
+      ++stats_.degeneracySnaps;
+      cutChanged(e);
+    }
+  }
+}
+
+void Cleaver::checkTet(int32_t t) {
+  if (!quadReal_[t] && quadAlias_[t].none()) placeVirtualQuad(t);
+  const Ref Q = resolve({kQuad, t});
+  const auto& q = tv(t);
+  if (Q.kind == kVertex) {
+    const int lv = localVertex(t, Q.index);
+    // Every face at w must have its triple at w; triples can move down to w, never across.
+    for (int lf = 0; lf < 4; ++lf) {
+      if (lf == lv) continue;
+      const Ref Tf = tripleSeen(t, lf);
+      if (Tf.kind == kVertex && Tf.index != Q.index && !cutsOnVertices(t, lf)) {
+        releaseQuad(t);
+        return;
+      }
+    }
+    for (int lf = 0; lf < 4; ++lf) {
+      if (lf == lv) continue;
+      const int32_t f = tetFace_[t][lf];
+      const Ref Tf = tripleSeen(t, lf);
+      if (Tf == Q) continue;
+      if (Tf.kind == kVertex) {
+        triOverride_[t][lf] = Q.index; // a single-triangle face: view its triple at w
+      } else {
+        triAlias_[f] = Q;
+        ++stats_.degeneracySnaps;
+        tripleChanged(f);
+      }
+    }
+  } else if (Q.kind == kCut) {
+    const int la = localVertex(t, edgeV_[Q.index][0]), lb = localVertex(t, edgeV_[Q.index][1]);
+    for (int lf = 0; lf < 4; ++lf) {
+      if (lf == la || lf == lb) continue;
+      const Ref Tf = resolve({kTriple, tetFace_[t][lf]});
+      if (Tf.kind != kTriple && !(Tf == Q)) {
+        releaseQuad(t);
+        return;
+      }
+    }
+    for (int lf = 0; lf < 4; ++lf) {
+      if (lf == la || lf == lb) continue;
+      const int32_t f = tetFace_[t][lf];
+      if (!(resolve({kTriple, f}) == Q)) {
+        triAlias_[f] = Q;
+        ++stats_.degeneracySnaps;
+        tripleChanged(f);
+      }
+    }
+  }
+  (void)q;
+}
+
+void Cleaver::closure() {
+  progress_.beginStage("resolve degeneracies");
+  faceQueued_.assign(faceV_.size(), 0);
+  tetQueued_.assign(itet_.size(), 0);
+  for (int32_t f = 0; f < static_cast<int32_t>(faceV_.size()); ++f) pushFace(f);
+  for (int32_t t = 0; t < static_cast<int32_t>(itet_.size()); ++t) pushTet(t);
+  while (!work_.empty()) {
+    const auto [kind, idx] = work_.front();
+    work_.pop_front();
+    if (kind == kTriple) {
+      faceQueued_[idx] = 0;
+      checkFace(idx);
+    } else {
+      tetQueued_[idx] = 0;
+      checkTet(idx);
+    }
+  }
+}
+
+CleaveResult Cleaver::stencil() {
+  progress_.beginStage("stencil");
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
+  const int64_t ni = static_cast<int64_t>(itet_.size());
+  // Output ids: lattice vertices, then free cuts, triples, quadruples.
+  std::vector<int32_t> cutId(static_cast<size_t>(ne), -1), triId(static_cast<size_t>(nf), -1),
+      quadId(static_cast<size_t>(ni), -1);
+  int64_t next = nv;
+  for (int64_t e = 0; e < ne; ++e)
+    if (cutAlias_[e].none()) cutId[e] = static_cast<int32_t>(next++);
+  for (int64_t f = 0; f < nf; ++f)
+    if (triAlias_[f].none()) triId[f] = static_cast<int32_t>(next++);
+  for (int64_t t = 0; t < ni; ++t)
+    if (quadAlias_[t].none()) quadId[t] = static_cast<int32_t>(next++);
+  if (next > (int64_t(1) << 31) - 1) throw ProcessingError("cleaving: too many output vertices");
+
+  CleaveResult r;
+  TetMesh& out = r.mesh;
+  out.points.resize(static_cast<size_t>(next));
+  for (int64_t v = 0; v < nv; ++v) out.points[v] = pos_[v];
+  for (int64_t e = 0; e < ne; ++e)
+    if (cutId[e] >= 0) out.points[cutId[e]] = positionOf({kCut, static_cast<int32_t>(e)});
+  for (int64_t f = 0; f < nf; ++f)
+    if (triId[f] >= 0) out.points[triId[f]] = positionOf({kTriple, static_cast<int32_t>(f)});
+  for (int64_t t = 0; t < ni; ++t)
+    if (quadId[t] >= 0) out.points[quadId[t]] = positionOf({kQuad, static_cast<int32_t>(t)});
+
+  auto idOf = [&](Ref x) -> int32_t {
+    x = resolve(x);
+    switch (x.kind) {
+      case kVertex: return x.index;
+      case kCut: return cutId[x.index];
+      case kTriple: return triId[x.index];
+      case kQuad: return quadId[x.index];
+    }
+    return -1;
+  };
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  std::vector<int64_t> counts(static_cast<size_t>(nt) + 1, 0);
+  // Pass 1: count output tets per background tet; pass 2: fill at the prefix offsets.
+  for (int pass = 0; pass < 2; ++pass) {
+#pragma omp parallel for schedule(dynamic, 1024)
+    for (int64_t b = 0; b < nt; ++b) {
+      const auto& q = m_.tets[b];
+      const int32_t it = bgToInterface_[b];
+      if (it < 0) {
+        if (pass == 0) counts[b + 1] = 1;
+        else {
+          out.tets[counts[b]] = q;
+          out.materials[counts[b]] = mats_.labels()[label_[q[0]]];
+        }
+        continue;
+      }
+      int64_t k = pass == 0 ? 0 : counts[b];
+      const int32_t qid = idOf({kQuad, it});
+      for (const Flag& fl : flags_) {
+        const int32_t a = q[fl.v];
+        const int32_t c = idOf({kCut, tetEdge_[it][fl.e]});
+        const int32_t ov = triOverride_[it][fl.f];
+        const int32_t tr = ov >= 0 ? ov : idOf({kTriple, tetFace_[it][fl.f]});
+        if (a == c || a == tr || a == qid || c == tr || c == qid || tr == qid) continue;
+        if (pass == 0) {
+          ++k;
+        } else {
+          out.tets[k] = fl.swapVE ? TetMesh::Tet{c, a, tr, qid} : TetMesh::Tet{a, c, tr, qid};
+          out.materials[k] = mats_.labels()[label_[a]];
+          ++k;
+        }
+      }
+      if (pass == 0) counts[b + 1] = k;
+    }
+    if (pass == 0) {
+      for (int64_t b = 0; b < nt; ++b) counts[b + 1] += counts[b];
+      out.tets.resize(static_cast<size_t>(counts[nt]));
+      out.materials.resize(static_cast<size_t>(counts[nt]));
+    }
+  }
+  return r;
+}
+
+CleaveResult Cleaver::run() {
+  if (m_.tets.empty()) throw InputError("cleaving: the background mesh has no tets");
+  for (double a : {p_.alpha_short, p_.alpha_long})
+    if (!(a >= 0.0 && a < 0.5)) throw InputError("alpha_short and alpha_long must be in [0, 0.5)");
+  if (!(p_.xi > 0.0 && p_.xi <= 0.5)) throw InputError("xi must be in (0, 0.5]");
+  stats_.backgroundTets = static_cast<int64_t>(m_.tets.size());
+  sample();
+  buildInterfaces();
+  computeVertexAlphas();
+  phaseVertices();
+  phaseEdges();
+  phaseFaces();
+  generalize();
+  closure();
+  CleaveResult r = stencil();
+  progress_.beginStage("finish");
+  TetMesh& out = r.mesh;
+  // Per-material outcome, then strip_exterior, then drop unused vertices.
+  const auto& labels = mats_.labels();
+  r.materials.resize(labels.size());
+  for (size_t i = 0; i < labels.size(); ++i) {
+    r.materials[i].label = labels[i];
+    r.materials[i].inputVolume = mats_.inputVolumes()[i];
+  }
+  for (size_t t = 0; t < out.tets.size(); ++t) {
+    const size_t i = static_cast<size_t>(std::lower_bound(labels.begin(), labels.end(), out.materials[t]) - labels.begin());
+    const size_t idx = i < labels.size() && labels[i] == out.materials[t]
+                           ? i
+                           : static_cast<size_t>(std::find(labels.begin(), labels.end(), out.materials[t]) - labels.begin());
+    r.materials[idx].tets += 1;
+    r.materials[idx].meshVolume += out.tetVolume(t);
+  }
+  if (p_.strip_exterior) {
+    size_t w = 0;
+    for (size_t t = 0; t < out.tets.size(); ++t)
+      if (out.materials[t] != *p_.strip_exterior) {
+        out.tets[w] = out.tets[t];
+        out.materials[w] = out.materials[t];
+        ++w;
+      }
+    stats_.strippedTets = static_cast<int64_t>(out.tets.size() - w);
+    out.tets.resize(w);
+    out.materials.resize(w);
+    for (auto& mo : r.materials)
+      if (mo.label == *p_.strip_exterior) mo.stripped = true;
+  }
+  std::vector<int32_t> remap(out.points.size(), -1);
+  int32_t used = 0;
+  for (const auto& q : out.tets)
+    for (int32_t v : q)
+      if (remap[v] < 0) remap[v] = 0;
+  for (size_t v = 0; v < remap.size(); ++v)
+    if (remap[v] == 0) remap[v] = used++;
+  std::vector<Vec3> pts(static_cast<size_t>(used));
+  for (size_t v = 0; v < remap.size(); ++v)
+    if (remap[v] >= 0) pts[remap[v]] = out.points[v];
+  out.points.swap(pts);
+  for (auto& q : out.tets)
+    for (auto& v : q) v = remap[v];
+  progress_.endStage();
+  r.stats = stats_;
+  return r;
+}
+
+} // namespace
+
+CleaveResult cleave(const BackgroundMesh& background, const MaterialSet& materials,
+                    const CleaveParams& params, Progress& progress) {
+  Cleaver c(background, materials, params, progress);
+  return c.run();
+}
+
+void writeCleaveReport(const CleaveResult& r, Report& rep) {
+  const CleaveStats& s = r.stats;
+  rep.set("tets", ReportValue(int64_t(r.mesh.numTets())));
+  rep.set("vertices", ReportValue(int64_t(r.mesh.numPoints())));
+  rep.set("background_tets", ReportValue(s.backgroundTets));
+  rep.set("interface_tets", ReportValue(s.interfaceTets));
+  rep.set("cuts", ReportValue(s.cuts));
+  rep.set("triples", ReportValue(s.triples));
+  rep.set("quadruples", ReportValue(s.quadruples));
+  rep.set("warped_vertices", ReportValue(s.warpedVertices));
+  rep.set("snaps", ReportValue(s.snaps));
+  rep.set("degeneracy_snaps", ReportValue(s.degeneracySnaps));
+  rep.set("steiner_points", ReportValue(s.steinerPoints));
+  if (s.strippedTets) rep.set("stripped_tets", ReportValue(s.strippedTets));
+  std::string present, lost;
+  for (const auto& m : r.materials) {
+    const std::string key = "material_" + std::to_string(m.label);
+    rep.set(key + "_tets", ReportValue(m.tets));
+    rep.set(key + "_volume_mm3", ReportValue(m.meshVolume));
+    rep.set(key + "_input_mm3", ReportValue(m.inputVolume));
+    if (m.lost()) {
+      if (!lost.empty()) lost += ' ';
+      lost += std::to_string(m.label);
+    } else {
+      if (!present.empty()) present += ' ';
+      present += std::to_string(m.label);
+    }
+  }
+  rep.set("materials_present", present);
+  rep.set("materials_lost", lost.empty() ? std::string("none") : lost);
+}
+
+} // namespace tetflow

@@ -1,0 +1,83 @@
+#pragma once
+// Lattice cleaving (seed chapter 4; §5.5 for unstructured backgrounds): turns a background
+// tetrahedral mesh and a set of materials into a conforming multimaterial mesh.
+//
+// Stages (named, timed, reported through Progress):
+//   sample      label every background vertex by its maximal indicator function (ties go to the
+//               lower material index) and keep the values of the materials present there
+//   interfaces  cuts on edges with two labels, triples on faces with three, quadruples in tets
+//               with four (linear interpolation of the sampled values; points computed outside
+//               their simplex are projected back into it, §4.4)
+//   snap/warp   three phases (§4.7, §4.9): violated vertices are warped to the centre of mass of
+//               the violating interface points, which snap to them, and the remaining points
+//               on incident simplices are recomputed (oracle re-query at the warped position);
+//               then triples/quadruples violating edges snap to the edge's cut; then
+//               quadruples violating faces snap to the face's triple
+//   generalize  virtual cuts, triples and quadruples complete every interface tet to the
+//               six-cut case (§4.8) with the vertex-order rule of §5.5.1 (a virtual cut goes to
+//               the lower vertex id), so shared faces are stencilled identically by both tets;
+//               then degeneracies are removed by further snaps (§4.7, Fig. 4.7) until every
+//               stencil tet is either collapsed or non-degenerate
+//   stencil     the generalized stencil: 24 tets (vertex, cut, triple, quadruple) per interface
+//               tet, dropping collapsed ones; tets with one material are output unchanged
+//
+// Violation (§4.6): an interface point with barycentric coordinates lambda in its simplex
+// violates a sub-simplex s when, for every vertex x outside s and y in s,
+//   lambda_x (1 - alpha) < alpha lambda_y,
+// alpha being the violation parameter of edge (x, y) measured from y. BCC lattices use
+// alpha_short / alpha_long as fractions of the edge length (edges touching the box's face
+// centres use alpha_long); unstructured backgrounds use alpha = (1/2 - xi) * h per vertex, h the
+// shortest altitude of the incident tets (§5.5.2). alpha_short = alpha_long = 0 gives plain
+// stencilling (only interface points exactly on a lower simplex are snapped).
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "Algorithms/BackgroundMesh/BccLattice.h"
+#include "Algorithms/Core/Progress.h"
+#include "Algorithms/Core/Report.h"
+#include "Algorithms/Core/TetMesh.h"
+#include "Materials.h"
+
+namespace tetflow {
+
+struct CleaveParams {
+  double alpha_short = 0.357; // BCC short edges (primal-dual), fraction of edge length, [0, 0.5)
+  double alpha_long = 0.203;  // BCC long edges (primal-primal, dual-dual), fraction, [0, 0.5)
+  double xi = 0.2;            // unstructured backgrounds: alpha = (1/2 - xi) h, xi in (0, 1/2]
+  std::optional<int32_t> strip_exterior; // material label removed after meshing (e.g. 0)
+};
+
+struct CleaveStats {
+  int64_t backgroundTets = 0, interfaceTets = 0;
+  int64_t cuts = 0, triples = 0, quadruples = 0;      // real interface points
+  int64_t warpedVertices = 0, snaps = 0;               // phase 1-3 snaps
+  int64_t degeneracySnaps = 0;                         // extra snaps of the closure
+  int64_t steinerPoints = 0;                           // quadruples placed at a tet centroid
+  int64_t strippedTets = 0;
+};
+
+struct MaterialOutcome {
+  int32_t label = 0;
+  double inputVolume = 0.0; // mm^3, voxels of the input
+  double meshVolume = 0.0;  // mm^3 in the output (before strip_exterior)
+  int64_t tets = 0;
+  bool stripped = false;
+  bool lost() const { return tets == 0 && inputVolume > 0.0; }
+};
+
+struct CleaveResult {
+  TetMesh mesh;
+  CleaveStats stats;
+  std::vector<MaterialOutcome> materials; // one per input material, in label order
+};
+
+// Throws InputError for bad parameters (naming them) or an empty background.
+CleaveResult cleave(const BackgroundMesh& background, const MaterialSet& materials,
+                    const CleaveParams& params, Progress& progress);
+
+// Figures for the module Report (counts, lost materials, stage times are added by the caller).
+void writeCleaveReport(const CleaveResult& r, Report& report);
+
+} // namespace tetflow

@@ -1,0 +1,82 @@
+#pragma once
+// Materials as smooth indicator functions (seed §4.3): material i is present at x when
+// f_i(x) > f_j(x) for all j != i. Cleaving queries them at background-mesh vertices only.
+//
+// Two sources:
+//  - LabelMaterials: a label volume (any label values). f_i(x) is the fraction of label i under
+//    a smooth, compactly supported kernel centred at x (a Gaussian of standard deviation
+//    `blend_sigma` voxels, tapered to zero at 2.5 sigma). Values are in [0,1] and sum to 1; the
+//    0.5 level between two labels sits on the voxel faces between them. Computed on demand at
+//    the query point: memory does not grow with (labels x voxels).
+//  - IndicatorMaterials: one scalar volume per material on a common grid, trilinearly
+//    interpolated (outside the grid the nearest boundary value is used).
+//
+// Material indices are dense 0..K-1; labels() maps them to the label values users know.
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "Algorithms/Core/Volume.h"
+
+namespace tetflow {
+
+struct MaterialSample {
+  int32_t material; // dense index
+  float value;
+};
+
+class MaterialSet {
+public:
+  virtual ~MaterialSet() = default;
+  int numMaterials() const { return static_cast<int>(labels_.size()); }
+  const std::vector<int32_t>& labels() const { return labels_; }
+  // Sampling grid: its voxel cells define the domain box.
+  const GridGeometry& grid() const { return grid_; }
+  // Voxel volume (mm^3) of each material in the input (argmax per voxel for indicators).
+  const std::vector<double>& inputVolumes() const { return inputVolumes_; }
+  // Values at p (physical, mm): entries sorted by material; materials not listed have value
+  // absentValue(). `out` is cleared first.
+  virtual void sample(const Vec3& p, std::vector<MaterialSample>& out) const = 0;
+  virtual float absentValue() const { return 0.0f; }
+  virtual std::string describe() const = 0;
+
+protected:
+  std::vector<int32_t> labels_;
+  GridGeometry grid_;
+  std::vector<double> inputVolumes_;
+};
+
+class LabelMaterials : public MaterialSet {
+public:
+  // blendSigma in voxels (> 0). Throws InputError for an empty volume or bad sigma.
+  LabelMaterials(std::shared_ptr<const LabelVolume> volume, double blendSigma);
+  void sample(const Vec3& p, std::vector<MaterialSample>& out) const override;
+  std::string describe() const override;
+  double blendSigma() const { return sigma_; }
+
+private:
+  std::shared_ptr<const LabelVolume> volume_;
+  std::vector<int32_t> dense_; // label value -> dense index, via sorted labels_ (binary search)
+  double sigma_;
+  double radius_; // kernel support in voxels
+  Mat3 inverse_;  // physical -> index-space rotation (transpose of direction)
+  int32_t denseIndex(int32_t label) const;
+};
+
+class IndicatorMaterials : public MaterialSet {
+public:
+  // One volume per material, same grid; labels default to 0..K-1. InputError when grids differ,
+  // fewer than one volume, or labels are not unique / of the wrong count.
+  IndicatorMaterials(std::vector<ScalarVolume> volumes, std::vector<int32_t> labels = {});
+  void sample(const Vec3& p, std::vector<MaterialSample>& out) const override;
+  float absentValue() const override { return -1e30f; } // never used: all are listed
+  std::string describe() const override;
+
+private:
+  std::vector<ScalarVolume> volumes_;
+  Mat3 inverse_;
+};
+
+} // namespace tetflow
