@@ -55,4 +55,9 @@ std::string ReportData::summary() const {
   return "Report with " + std::to_string(value.entries().size()) + " entries";
 }
 
+template <>
+std::string MaterialsData::summary() const {
+  return "Materials: " + (value ? value->describe() : std::string("none"));
+}
+
 } // namespace tetflow

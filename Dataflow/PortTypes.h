@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "Algorithms/Cleaving/Materials.h"
 #include "Algorithms/Core/Report.h"
 #include "Algorithms/Core/TetMesh.h"
 #include "Algorithms/Core/Volume.h"
@@ -57,10 +58,13 @@ using LabelVolumeData = DataOf<LabelVolume, PortType::LabelVolume>;
 using ScalarVolumeData = DataOf<ScalarVolume, PortType::ScalarVolume>;
 using TetMeshData = DataOf<TetMesh, PortType::TetMesh>;
 using ReportData = DataOf<Report, PortType::Report>;
+// A set of indicator functions (or labels seen as such); shared, immutable.
+using MaterialsData = DataOf<std::shared_ptr<const MaterialSet>, PortType::Materials>;
 template <> std::string LabelVolumeData::summary() const;
 template <> std::string ScalarVolumeData::summary() const;
 template <> std::string TetMeshData::summary() const;
 template <> std::string ReportData::summary() const;
+template <> std::string MaterialsData::summary() const;
 
 template <class D, class T>
 std::shared_ptr<const D> makeData(T&& value) {

@@ -11,6 +11,18 @@ void registerStandardModules(ModuleRegistry& r) {
   registerReadMesh(r);
   registerWriteMesh(r);
   registerEvaluateQuality(r);
+  registerReadIndicatorFunctions(r);
+  registerGenerateBackgroundMesh(r);
+  registerCleaveMesh(r);
+}
+
+std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma) {
+  if (data->type() == PortType::Materials)
+    return static_cast<const MaterialsData&>(*data).value;
+  const auto& lv = dynamic_cast<const LabelVolumeData&>(*data);
+  // Share the volume with the data object that owns it (no copy).
+  std::shared_ptr<const LabelVolume> vol(data, &lv.value);
+  return std::make_shared<const LabelMaterials>(vol, blendSigma);
 }
 
 void reportLabelVolume(Report& report, const LabelVolume& v) {

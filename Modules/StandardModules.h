@@ -15,6 +15,13 @@ void registerReadMesh(ModuleRegistry& r);
 void registerWriteMesh(ModuleRegistry& r);
 void registerEvaluateQuality(ModuleRegistry& r);
 
+void registerReadIndicatorFunctions(ModuleRegistry& r);
+void registerGenerateBackgroundMesh(ModuleRegistry& r);
+void registerCleaveMesh(ModuleRegistry& r);
+
+// "LabelVolume or Materials" inputs: a label volume becomes LabelMaterials (blendSigma voxels).
+std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma);
+
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);
 

@@ -93,6 +93,45 @@ private:
   std::vector<uint8_t> warped_;
   std::unordered_map<int32_t, std::vector<MaterialSample>> resampled_;
   std::vector<float> vertexAlpha_; // unstructured: absolute alpha (mm)
+  // Vertices on the domain box (in the materials grid's frame) keep their box coordinates when
+  // warped, so the mesh still fills the box exactly: bit a set = local axis a is fixed.
+  std::vector<uint8_t> fixedAxes_;
+  // All background tets around each vertex (CSR), to keep warps from flattening any of them.
+  std::vector<int64_t> allStart_;
+  std::vector<int32_t> allList_;
+  // Largest fraction (1, 1/2, 1/4, ...) of the move to `target` that keeps every background tet
+  // around v at >= 10 % of its original volume; 0 when none does.
+  Vec3 safeWarp(int32_t v, const Vec3& target) {
+    const Vec3 from = pos_[v];
+    for (int tries = 0; tries < 8; ++tries) {
+      const double s = std::ldexp(1.0, -tries);
+      const Vec3 p = from + s * (target - from);
+      bool ok = true;
+      pos_[v] = p;
+      for (int64_t i = allStart_[v]; i < allStart_[v + 1] && ok; ++i) {
+        const auto& q = m_.tets[allList_[i]];
+        const double now = signedTetVolume(pos_[q[0]], pos_[q[1]], pos_[q[2]], pos_[q[3]]);
+        const double orig = signedTetVolume(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]]);
+        ok = now >= 0.1 * orig;
+      }
+      pos_[v] = from;
+      if (ok) return p;
+    }
+    ++stats_.limitedWarps;
+    return from;
+  }
+  Mat3 frame_ = identity3();
+  void computeBoxConstraints();
+  Vec3 constrainWarp(int32_t v, const Vec3& target) const {
+    const uint8_t fixed = fixedAxes_[v];
+    if (!fixed) return target;
+    if (fixed == 7) return m_.points[v];
+    const Vec3 d = target - m_.points[v];
+    Vec3 l{0, 0, 0};
+    for (int a = 0; a < 3; ++a) // local = frame^T d
+      if (!(fixed >> a & 1)) l[a] = frame_[0][a] * d[0] + frame_[1][a] * d[1] + frame_[2][a] * d[2];
+    return m_.points[v] + mul(frame_, l);
+  }
 
   std::vector<int32_t> itet_;                    // interface tet -> background tet
   std::vector<int32_t> bgToInterface_;           // background tet -> interface tet or -1
@@ -352,6 +391,25 @@ private:
   void placeVirtualQuad(int32_t t);
   void releaseQuad(int32_t t);
   int32_t faceEdge(int32_t f, int32_t a, int32_t b) const; // edge id of (a,b) in a tet holding f
+  // A lattice vertex that did not move onto an interface and carries another material than
+  // `owner`: it must not become a corner of owner's tets.
+  bool strayVertex(Ref r, int32_t owner) const {
+    return r.kind == kVertex && !warped_[r.index] && label_[r.index] != label_[owner];
+  }
+  // Stencil tets of tet t with quadruple Q and the given view of its face triples that would
+  // contain a stray vertex.
+  int strayCount(int32_t t, Ref Q, const std::array<Ref, 4>& T) const {
+    const auto& q = tv(t);
+    int bad = 0;
+    for (const Flag& fl : flags_) {
+      const Ref V{kVertex, q[fl.v]};
+      const Ref C = resolve({kCut, tetEdge_[t][fl.e]});
+      const Ref& Tf = T[fl.f];
+      if (C == V || Tf == V || Q == V || C == Tf || C == Q || Tf == Q) continue;
+      if (strayVertex(C, q[fl.v]) || strayVertex(Tf, q[fl.v]) || strayVertex(Q, q[fl.v])) ++bad;
+    }
+    return bad;
+  }
   bool cutsOnVertices(int32_t t, int lf) const {
     for (int le = 0; le < 6; ++le)
       if (faceHasEdge(lf, le) && resolve({kCut, tetEdge_[t][le]}).kind != kVertex) return false;
@@ -363,6 +421,38 @@ private:
     return o >= 0 ? Ref{kVertex, o} : resolve({kTriple, tetFace_[t][lf]});
   }
 };
+
+void Cleaver::computeBoxConstraints() {
+  frame_ = mats_.grid().direction;
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  allStart_.assign(static_cast<size_t>(nv) + 1, 0);
+  for (const auto& q : m_.tets)
+    for (int32_t v : q) ++allStart_[v + 1];
+  for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
+  allList_.resize(static_cast<size_t>(allStart_[nv]));
+  {
+    std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
+    for (size_t t = 0; t < m_.tets.size(); ++t)
+      for (int32_t v : m_.tets[t]) allList_[fill[v]++] = static_cast<int32_t>(t);
+  }
+  fixedAxes_.assign(static_cast<size_t>(nv), 0);
+  std::vector<Vec3> local(static_cast<size_t>(nv));
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (int64_t v = 0; v < nv; ++v) {
+    const Vec3 d = m_.points[v] - mats_.grid().origin;
+    for (int a = 0; a < 3; ++a) {
+      local[v][a] = frame_[0][a] * d[0] + frame_[1][a] * d[1] + frame_[2][a] * d[2];
+      lo[a] = std::min(lo[a], local[v][a]);
+      hi[a] = std::max(hi[a], local[v][a]);
+    }
+  }
+  for (int64_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) {
+      const double eps = 1e-9 * (hi[a] - lo[a]);
+      if (std::abs(local[v][a] - lo[a]) <= eps || std::abs(local[v][a] - hi[a]) <= eps)
+        fixedAxes_[v] |= static_cast<uint8_t>(1u << a);
+    }
+}
 
 void Cleaver::sample() {
   progress_.beginStage("sample");
@@ -586,9 +676,10 @@ void Cleaver::phaseVertices() {
     c = (1.0 / double(viol.size())) * c;
     for (const Ref& r : viol) setAlias(r, Ref{kVertex, v});
     stats_.snaps += static_cast<int64_t>(viol.size());
-    pos_[v] = c;
+    pos_[v] = safeWarp(v, constrainWarp(v, c));
+    c = pos_[v];
     warped_[v] = 1;
-    ++stats_.warpedVertices;
+    if (!(c == m_.points[v])) ++stats_.warpedVertices;
     mats_.sample(c, s);
     resampled_[v] = s;
     // Project the remaining interface points around v onto the surfaces at the new position.
@@ -699,85 +790,106 @@ void Cleaver::generalize() {
   // Virtual cuts go to the lower vertex id (§5.5.1).
   for (int64_t e = 0; e < ne; ++e)
     if (!cutReal_[e]) cutAlias_[e] = Ref{kVertex, edgeV_[e][0]};
-  // Virtual triples: the lowest-dimensional valid location, preferring the most collocated.
+  // Virtual triples: among the valid locations (a vertex whose two cuts on this face sit on
+  // vertices, or any interior cut), choose the one that puts no unwarped lattice vertex into a
+  // triangle of another material (such a vertex is not on the interface: §4.10.1), then the
+  // lowest dimension, then the most collocated cuts, then the lowest id.
   for (int32_t f = 0; f < nf; ++f) {
     if (triReal_[f]) continue;
     const auto& v = faceV_[f];
-    int32_t edges[3][3]; // per vertex k: the two edges of the face at v[k] (edge ids), and k
-    Ref best{};
-    int bestScore = -1;
+    int32_t edges[3][2];
     for (int k = 0; k < 3; ++k) {
-      const int32_t w = v[k];
-      const int32_t e1 = faceEdge(f, w, v[(k + 1) % 3]), e2 = faceEdge(f, w, v[(k + 2) % 3]);
-      edges[k][0] = e1;
-      edges[k][1] = e2;
-      const Ref c1 = resolve({kCut, e1}), c2 = resolve({kCut, e2});
-      if (c1.kind != kVertex || c2.kind != kVertex) continue;
-      const int score = (c1.index == w) + (c2.index == w);
-      if (score > bestScore) {
-        bestScore = score;
-        best = Ref{kVertex, w};
-      }
+      edges[k][0] = faceEdge(f, v[k], v[(k + 1) % 3]);
+      edges[k][1] = faceEdge(f, v[k], v[(k + 2) % 3]);
     }
-    if (best.none()) {
-      // An interior cut (always valid). Prefer the cut next to a vertex where another cut of
-      // the face went (the triple follows the virtual cut, §5.5.1 / Fig. 5.7); ties to the
-      // lower edge id.
-      int bestRank = -1;
+    auto badFor = [&](Ref T) {
+      int bad = 0;
       for (int k = 0; k < 3; ++k)
         for (int j = 0; j < 2; ++j) {
-          const int32_t e = edges[k][j];
-          const Ref c = resolve({kCut, e});
-          if (c.kind != kCut) continue;
-          const int32_t w = v[k];
-          const int32_t other = edges[k][1 - j];
-          const Ref co = resolve({kCut, other});
-          const int rank = (co == Ref{kVertex, w} ? 2 : 0) + (cutReal_[e] ? 1 : 0);
-          if (rank > bestRank || (rank == bestRank && e < best.index)) {
-            bestRank = rank;
-            best = Ref{kCut, e};
-          }
+          const Ref V{kVertex, v[k]};
+          const Ref C = resolve({kCut, edges[k][j]});
+          if (C == V || T == V || C == T) continue;
+          if (strayVertex(C, v[k]) || strayVertex(T, v[k])) ++bad;
         }
+      return bad;
+    };
+    Ref best{};
+    std::array<int64_t, 4> bestKey{};
+    auto consider = [&](Ref cand, int64_t dim, int64_t collocated) {
+      const std::array<int64_t, 4> key{badFor(cand), dim, -collocated, cand.index};
+      if (best.none() || key < bestKey) {
+        best = cand;
+        bestKey = key;
+      }
+    };
+    for (int k = 0; k < 3; ++k) {
+      const Ref c1 = resolve({kCut, edges[k][0]}), c2 = resolve({kCut, edges[k][1]});
+      if (c1.kind == kVertex && c2.kind == kVertex)
+        consider(Ref{kVertex, v[k]}, 0, (c1.index == v[k]) + (c2.index == v[k]));
     }
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 2; ++j) {
+        const int32_t e = edges[k][j];
+        if (resolve({kCut, e}).kind != kCut) continue;
+        // Prefer the cut next to where another cut of the face went (Fig. 5.7), real cuts.
+        const Ref co = resolve({kCut, edges[k][1 - j]});
+        consider(Ref{kCut, e}, 1, (co == Ref{kVertex, v[k]} ? 2 : 0) + (cutReal_[e] ? 1 : 0));
+      }
     triAlias_[f] = best;
   }
 }
 
 void Cleaver::placeVirtualQuad(int32_t t) {
   const auto& q = tv(t);
-  // Candidates in order of the tet's vertex ids / edge ids / face ids (deterministic).
-  int order[4] = {0, 1, 2, 3};
-  std::sort(order, order + 4, [&](int a, int b) { return q[a] < q[b]; });
-  for (int lv : order) {
-    bool ok = true;
-    for (int lf = 0; lf < 4 && ok; ++lf)
-      if (lf != lv)
-        ok = tripleSeen(t, lf) == Ref{kVertex, q[lv]} ||
-             (tripleSeen(t, lf).kind == kVertex && cutsOnVertices(t, lf));
-    if (ok) {
-      quadAlias_[t] = Ref{kVertex, q[lv]};
-      return;
+  // Valid locations: a vertex whose three faces have their triple there (or are single
+  // triangles, viewed with the triple there); an interior cut whose two faces have their triple
+  // on it; a free triple. Choose the one with no stray vertex in the stencil, then the lowest
+  // dimension, then the lowest id; failing all, a Steiner point at the centroid.
+  std::array<Ref, 4> seen;
+  for (int lf = 0; lf < 4; ++lf) seen[lf] = tripleSeen(t, lf);
+  Ref best{};
+  std::array<int32_t, 4> bestOverride{-1, -1, -1, -1};
+  std::array<int64_t, 3> bestKey{};
+  auto consider = [&](Ref cand, const std::array<Ref, 4>& view, const std::array<int32_t, 4>& ov, int64_t dim) {
+    const std::array<int64_t, 3> key{strayCount(t, cand, view), dim, cand.index};
+    if (best.none() || key < bestKey) {
+      best = cand;
+      bestKey = key;
+      bestOverride = ov;
     }
+  };
+  for (int lv = 0; lv < 4; ++lv) {
+    const Ref W{kVertex, q[lv]};
+    std::array<Ref, 4> view = seen;
+    std::array<int32_t, 4> ov = triOverride_[t];
+    bool ok = true;
+    for (int lf = 0; lf < 4 && ok; ++lf) {
+      if (lf == lv || seen[lf] == W) continue;
+      ok = seen[lf].kind == kVertex && cutsOnVertices(t, lf);
+      view[lf] = W;
+      ov[lf] = q[lv];
+    }
+    if (ok) consider(W, view, ov, 0);
   }
   for (int le = 0; le < 6; ++le) {
     const int32_t e = tetEdge_[t][le];
-    if (!(resolve({kCut, e}) == Ref{kCut, e})) continue;
+    const Ref E{kCut, e};
+    if (!(resolve(E) == E)) continue;
     bool ok = true;
     for (int lf = 0; lf < 4 && ok; ++lf)
-      if (faceHasEdge(lf, le)) ok = resolve({kTriple, tetFace_[t][lf]}) == Ref{kCut, e};
-    if (ok) {
-      quadAlias_[t] = Ref{kCut, e};
-      return;
-    }
+      if (faceHasEdge(lf, le)) ok = seen[lf] == E;
+    if (ok) consider(E, seen, triOverride_[t], 1);
   }
   for (int lf = 0; lf < 4; ++lf) {
-    const int32_t f = tetFace_[t][lf];
-    if (resolve({kTriple, f}) == Ref{kTriple, f}) {
-      quadAlias_[t] = Ref{kTriple, f};
-      return;
-    }
+    const Ref F{kTriple, tetFace_[t][lf]};
+    if (seen[lf] == F) consider(F, seen, triOverride_[t], 2);
   }
-  releaseQuad(t);
+  if (best.none()) {
+    releaseQuad(t);
+    return;
+  }
+  quadAlias_[t] = best;
+  triOverride_[t] = bestOverride;
 }
 
 void Cleaver::releaseQuad(int32_t t) {
@@ -966,6 +1078,7 @@ CleaveResult Cleaver::run() {
     if (!(a >= 0.0 && a < 0.5)) throw InputError("alpha_short and alpha_long must be in [0, 0.5)");
   if (!(p_.xi > 0.0 && p_.xi <= 0.5)) throw InputError("xi must be in (0, 0.5]");
   stats_.backgroundTets = static_cast<int64_t>(m_.tets.size());
+  computeBoxConstraints();
   sample();
   buildInterfaces();
   computeVertexAlphas();
@@ -1045,6 +1158,7 @@ void writeCleaveReport(const CleaveResult& r, Report& rep) {
   rep.set("snaps", ReportValue(s.snaps));
   rep.set("degeneracy_snaps", ReportValue(s.degeneracySnaps));
   rep.set("steiner_points", ReportValue(s.steinerPoints));
+  rep.set("limited_warps", ReportValue(s.limitedWarps));
   if (s.strippedTets) rep.set("stripped_tets", ReportValue(s.strippedTets));
   std::string present, lost;
   for (const auto& m : r.materials) {

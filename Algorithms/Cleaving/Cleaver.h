@@ -9,7 +9,10 @@
 //               with four (linear interpolation of the sampled values; points computed outside
 //               their simplex are projected back into it, §4.4)
 //   snap/warp   three phases (§4.7, §4.9): violated vertices are warped to the centre of mass of
-//               the violating interface points, which snap to them, and the remaining points
+//               the violating interface points (vertices on the domain box stay on it, and a warp
+//               is cut back when it would leave a background tet below 10 % of its volume, which
+//               only happens for alphas beyond the defaults), the points snap to the vertex, and
+//               the remaining points
 //               on incident simplices are recomputed (oracle re-query at the warped position);
 //               then triples/quadruples violating edges snap to the edge's cut; then
 //               quadruples violating faces snap to the face's triple
@@ -55,6 +58,7 @@ struct CleaveStats {
   int64_t warpedVertices = 0, snaps = 0;               // phase 1-3 snaps
   int64_t degeneracySnaps = 0;                         // extra snaps of the closure
   int64_t steinerPoints = 0;                           // quadruples placed at a tet centroid
+  int64_t limitedWarps = 0;  // warps cut back so no background tet loses 90 % of its volume
   int64_t strippedTets = 0;
 };
 

@@ -157,8 +157,8 @@ AtomicOutputFile::AtomicOutputFile(const std::string& target, bool binary) : tar
                      "' does not exist (create it first)");
   if (fs::is_directory(p, ec)) throw InputError(target + ": cannot write: it is a folder");
   std::ostringstream t;
-  t << (dir / ("." + p.filename().string())).string() << ".tmp-" << ::getpid() << "-"
-    << g_tempCounter.fetch_add(1);
+  t << (dir / p.filename()).parent_path().string() << "/." << p.filename().string() << ".tmp-"
+    << ::getpid() << "-" << g_tempCounter.fetch_add(1);
   temp_ = t.str();
   out_.open(temp_, binary ? std::ios::binary | std::ios::out | std::ios::trunc
                           : std::ios::out | std::ios::trunc);

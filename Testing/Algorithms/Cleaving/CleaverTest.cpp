@@ -1,128 +1,344 @@
+// Lattice cleaving: validity, conformity, volume, angle bounds and fidelity on random label
+// volumes, phantoms and Cleaver's spheres indicator functions.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <random>
+#include <set>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Core/Phantom.h"
+#include "Algorithms/IO/VolumeIO.h"
+#include "Algorithms/Quality/MeshQuality.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
 
 namespace {
 
-struct Check {
-  double minVol = 1e300, total = 0;
-  int64_t nonpositive = 0, overshared = 0, boundaryOffBox = 0;
-  double minDihedral = 180, maxDihedral = 0;
-};
-
-double dihedralMin(const Vec3 p[4], double& maxOut) {
-  static const int e[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}, {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
-  double mn = 180;
-  maxOut = 0;
-  for (const auto& x : e) {
-    const Vec3 a = p[x[0]], b = p[x[1]], c = p[x[2]], d = p[x[3]];
-    const Vec3 ab = b - a;
-    const Vec3 n1 = cross(ab, c - a), n2 = cross(ab, d - a);
-    const double cs = dot(n1, n2) / (norm(n1) * norm(n2));
-    const double ang = std::acos(std::clamp(cs, -1.0, 1.0)) * 180.0 / M_PI;
-    mn = std::min(mn, ang);
-    maxOut = std::max(maxOut, ang);
-  }
-  return mn;
-}
-
-Check check(const TetMesh& m, const Vec3& lo, const Vec3& hi) {
-  Check c;
-  std::map<std::array<int32_t, 3>, int> faces;
-  for (size_t t = 0; t < m.tets.size(); ++t) {
-    const auto& q = m.tets[t];
-    const double v = m.tetVolume(t);
-    c.minVol = std::min(c.minVol, v);
-    c.total += v;
-    if (v <= 0) ++c.nonpositive;
-    const Vec3 p[4] = {m.points[q[0]], m.points[q[1]], m.points[q[2]], m.points[q[3]]};
-    double mx;
-    c.minDihedral = std::min(c.minDihedral, dihedralMin(p, mx));
-    c.maxDihedral = std::max(c.maxDihedral, mx);
-    for (int f = 0; f < 4; ++f) {
-      std::array<int32_t, 3> k;
-      int n = 0;
-      for (int i = 0; i < 4; ++i)
-        if (i != f) k[n++] = q[i];
-      std::sort(k.begin(), k.end());
-      ++faces[k];
-    }
-  }
-  for (const auto& [k, n] : faces) {
-    if (n > 2) ++c.overshared;
-    if (n == 1) {
-      // A boundary face must lie on one side of the box.
-      bool on = false;
-      for (int a = 0; a < 3 && !on; ++a)
-        for (double s : {lo[a], hi[a]}) {
-          bool all = true;
-          for (int32_t v : k) all = all && std::abs(m.points[v][a] - s) < 1e-9 * (hi[a] - lo[a]);
-          on = on || all;
-        }
-      if (!on) ++c.boundaryOffBox;
-    }
-  }
-  return c;
-}
+// Smallest dihedral angle seen over all random cases must stay above this (measured minimum
+// over the cases below: see README "Mesh quality"; the bound leaves a margin).
+constexpr double kMinDihedralBound = 2.5;
+constexpr double kMaxDihedralBound = 170.0;
 
 void boxOf(const GridGeometry& g, Vec3& lo, Vec3& hi) {
   for (int a = 0; a < 3; ++a) {
     lo[a] = g.origin[a] - 0.5 * g.spacing[a];
-    hi[a] = g.origin[a] + (g.dims[a] - 0.5) * g.spacing[a];
+    hi[a] = g.origin[a] + (double(g.dims[a]) - 0.5) * g.spacing[a];
   }
+}
+
+// Every material's surface (faces against another material or the outside) is closed: each of
+// its edges is used by an even number of those faces.
+int64_t openMaterialSurfaceEdges(const TetMesh& m) {
+  std::map<std::array<int32_t, 3>, std::vector<size_t>> faces;
+  for (size_t t = 0; t < m.tets.size(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<int32_t, 3> k;
+      int n = 0;
+      for (int i = 0; i < 4; ++i)
+        if (i != f) k[n++] = m.tets[t][i];
+      std::sort(k.begin(), k.end());
+      faces[k].push_back(t);
+    }
+  std::map<std::pair<int32_t, std::pair<int32_t, int32_t>>, int> edgeUse; // (material, edge)
+  for (const auto& [k, ts] : faces) {
+    std::vector<int32_t> mats;
+    if (ts.size() == 1) mats = {m.materials[ts[0]]};
+    else if (m.materials[ts[0]] != m.materials[ts[1]]) mats = {m.materials[ts[0]], m.materials[ts[1]]};
+    for (int32_t mat : mats)
+      for (int e = 0; e < 3; ++e) {
+        const int32_t a = k[e], b = k[(e + 1) % 3];
+        ++edgeUse[{mat, {std::min(a, b), std::max(a, b)}}];
+      }
+  }
+  int64_t open = 0;
+  for (const auto& [k, n] : edgeUse) open += n % 2;
+  return open;
+}
+
+struct Outcome {
+  QualityResult q;
+  CleaveResult r;
+};
+
+Outcome cleaveAndCheck(const std::shared_ptr<const LabelVolume>& vol, double cellSize, CleaveParams cp,
+                       const std::string& what) {
+  LabelMaterials mats(vol, 1.0);
+  NullProgress np;
+  const BackgroundMesh bg = generateRegularBcc(vol->grid, BccParams{cellSize, 0.0}, np);
+  Outcome o;
+  o.r = cleave(bg, mats, cp, np);
+  o.q = evaluateQuality(o.r.mesh, QualityParams{}, np);
+  SCOPED_TRACE(what);
+  EXPECT_TRUE(o.q.valid);
+  EXPECT_EQ(o.q.inverted, 0);
+  EXPECT_EQ(o.q.zeroVolume, 0);
+  EXPECT_EQ(o.q.duplicateTets, 0);
+  EXPECT_EQ(o.q.nonmanifoldFaces, 0);
+  EXPECT_TRUE(o.q.boundaryClosed);
+  EXPECT_EQ(o.q.unreferencedVertices, 0);
+  EXPECT_NEAR(o.q.volume, bg.boxVolume, 1e-9 * bg.boxVolume);
+  EXPECT_EQ(openMaterialSurfaceEdges(o.r.mesh), 0);
+  return o;
+}
+
+// Random label volumes of several kinds, fixed seeds.
+std::shared_ptr<LabelVolume> randomVolume(int kind, unsigned seed) {
+  std::mt19937 rng(seed);
+  auto vol = std::make_shared<LabelVolume>();
+  GridGeometry g;
+  g.dims = {12 + int64_t(rng() % 8), 12 + int64_t(rng() % 8), 10 + int64_t(rng() % 8)};
+  g.spacing = {1.0, 1.0 + 0.25 * (rng() % 3), 1.0};
+  g.origin = {double(rng() % 7) - 3, 2.5, -1};
+  vol->allocate(g, 0);
+  std::uniform_real_distribution<double> u(0, 1);
+  const int nLabels = 2 + int(rng() % 7); // 2..8 materials
+  std::vector<int32_t> labels(nLabels);
+  for (int i = 0; i < nLabels; ++i) labels[i] = i == 0 ? 0 : labels[i - 1] + 1 + int32_t(rng() % 40);
+  const auto& d = g.dims;
+  if (kind == 0) { // blobs
+    for (int b = 0; b < 2 * nLabels; ++b) {
+      const double cx = u(rng) * d[0], cy = u(rng) * d[1], cz = u(rng) * d[2], r = 1.5 + 4 * u(rng);
+      const int32_t l = labels[rng() % nLabels];
+      for (int64_t k = 0; k < d[2]; ++k)
+        for (int64_t j = 0; j < d[1]; ++j)
+          for (int64_t i = 0; i < d[0]; ++i)
+            if ((i - cx) * (i - cx) + (j - cy) * (j - cy) + (k - cz) * (k - cz) < r * r) vol->at(i, j, k) = l;
+    }
+  } else if (kind == 1) { // thin sheets, one or two voxels thick, across the volume
+    for (int s = 0; s < nLabels; ++s) {
+      const int axis = int(rng() % 3);
+      const int64_t at = int64_t(rng() % d[axis]);
+      const int thick = 1 + int(rng() % 2);
+      for (int64_t k = 0; k < d[2]; ++k)
+        for (int64_t j = 0; j < d[1]; ++j)
+          for (int64_t i = 0; i < d[0]; ++i) {
+            const int64_t c = axis == 0 ? i : axis == 1 ? j : k;
+            if (c >= at && c < at + thick) vol->at(i, j, k) = labels[s];
+          }
+    }
+  } else if (kind == 2) { // octants touching at corners and edges
+    const int64_t mx = d[0] / 2 + int64_t(rng() % 3) - 1, my = d[1] / 2, mz = d[2] / 2 + int64_t(rng() % 3) - 1;
+    for (int64_t k = 0; k < d[2]; ++k)
+      for (int64_t j = 0; j < d[1]; ++j)
+        for (int64_t i = 0; i < d[0]; ++i)
+          vol->at(i, j, k) = labels[((i < mx) + 2 * (j < my) + 4 * (k < mz)) % nLabels];
+  } else { // many labels: random Voronoi cells
+    std::vector<Vec3> seeds(static_cast<size_t>(3 * nLabels));
+    for (auto& s : seeds) s = {u(rng) * d[0], u(rng) * d[1], u(rng) * d[2]};
+    for (int64_t k = 0; k < d[2]; ++k)
+      for (int64_t j = 0; j < d[1]; ++j)
+        for (int64_t i = 0; i < d[0]; ++i) {
+          size_t best = 0;
+          double bd = 1e30;
+          for (size_t s = 0; s < seeds.size(); ++s) {
+            const Vec3 p{double(i), double(j), double(k)};
+            const double dd = dot(p - seeds[s], p - seeds[s]);
+            if (dd < bd) { bd = dd; best = s; }
+          }
+          vol->at(i, j, k) = labels[best % nLabels];
+        }
+  }
+  return vol;
 }
 
 } // namespace
 
-TEST(BccLattice, CoversTheBoxExactlyWithGoodTets) {
+TEST(BccLattice, CoversTheBoxExactly) {
   GridGeometry g;
   g.dims = {20, 13, 9};
   g.spacing = {0.5, 0.75, 1.25};
   g.origin = {3, -2, 10};
   NullProgress np;
-  const BackgroundMesh bg = generateRegularBcc(g, BccParams{1.7, 0.0}, np);
+  const BackgroundMesh bg = generateRegularBcc(g, BccParams{1.7, 0.3}, np);
+  const QualityResult q = evaluateQuality(bg.mesh, QualityParams{}, np);
+  EXPECT_TRUE(q.valid);
+  EXPECT_TRUE(q.boundaryClosed);
   Vec3 lo, hi;
   boxOf(g, lo, hi);
-  const Check c = check(bg.mesh, lo, hi);
-  EXPECT_EQ(c.nonpositive, 0);
-  EXPECT_EQ(c.overshared, 0);
-  EXPECT_EQ(c.boundaryOffBox, 0);
-  EXPECT_NEAR(c.total, (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]), 1e-9 * c.total);
-  EXPECT_NEAR(c.total, bg.boxVolume, 1e-9 * c.total);
+  const double box = (hi[0] - lo[0] + 0.6) * (hi[1] - lo[1] + 0.6) * (hi[2] - lo[2] + 0.6);
+  EXPECT_NEAR(q.volume, box, 1e-9 * box);
+  EXPECT_NEAR(bg.boxVolume, box, 1e-9 * box);
+  // Cells tile the box exactly: every vertex lies inside it (with the padding).
+  for (const Vec3& p : bg.mesh.points)
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_GE(p[a], lo[a] - 0.3 - 1e-9);
+      EXPECT_LE(p[a], hi[a] + 0.3 + 1e-9);
+    }
+  // Interior lattice tets are BCC tets (60 and 90 degrees); the bisected ones at the box have 45.
+  EXPECT_NEAR(q.maxDihedral, 90.0, 25.0);
+  EXPECT_GT(q.minDihedral, 40.0);
+  EXPECT_THROW_MSG(generateRegularBcc(g, BccParams{0.0, 0.0}, np), InputError, "cell_size");
+  EXPECT_THROW_MSG(generateRegularBcc(g, BccParams{1.0, -1.0}, np), InputError, "padding");
 }
 
-TEST(Cleaver, SphereIsValidAndConformingWithBoundedAngles) {
+TEST(BccLattice, RegularCubeCellsGiveExactBccAngles) {
+  GridGeometry g;
+  g.dims = {8, 8, 8};
+  NullProgress np;
+  const BackgroundMesh bg = generateRegularBcc(g, BccParams{2.0, 0.0}, np);
+  EXPECT_EQ(bg.cells, (std::array<int64_t, 3>{4, 4, 4}));
+  EXPECT_EQ(bg.mesh.numTets(), size_t(12 * 64 + 4 * 3 * 16));
+}
+
+TEST(Cleaver, RandomLabelVolumesGiveValidConformingMeshes) {
+  double worstMin = 180, worstMax = 0;
+  int cases = 0;
+  for (int kind = 0; kind < 4; ++kind)
+    for (unsigned seed = 1; seed <= 6; ++seed)
+      for (double cell : {1.0, 1.7, 2.6}) {
+        const auto vol = randomVolume(kind, 1000 * kind + seed);
+        const std::string what = "kind " + std::to_string(kind) + " seed " + std::to_string(seed) +
+                                 " cell " + std::to_string(cell);
+        const Outcome o = cleaveAndCheck(vol, cell, CleaveParams{}, what);
+        worstMin = std::min(worstMin, o.q.minDihedral);
+        worstMax = std::max(worstMax, o.q.maxDihedral);
+        EXPECT_GE(o.q.minDihedral, kMinDihedralBound) << what;
+        EXPECT_LE(o.q.maxDihedral, kMaxDihedralBound) << what;
+        ++cases;
+      }
+  std::printf("random label volumes: %d cases, dihedral angles in [%.2f, %.2f] degrees\n", cases,
+              worstMin, worstMax);
+}
+
+TEST(Cleaver, AlphaZeroIsPlainStencillingAndStillValid) {
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    const auto vol = randomVolume(0, 77 + seed);
+    CleaveParams cp;
+    cp.alpha_short = 0.0;
+    cp.alpha_long = 0.0;
+    const Outcome o = cleaveAndCheck(vol, 1.6, cp, "alpha 0 seed " + std::to_string(seed));
+    // No warps: every lattice vertex keeps its position (only exact-boundary snaps happen).
+    EXPECT_EQ(o.r.stats.warpedVertices, 0);
+  }
+}
+
+TEST(Cleaver, HeadPhantomVolumesConvergeAndInterfacesLieOnTheSpheres) {
   PhantomParams pp;
   pp.kind = PhantomKind::Head;
-  pp.radius = 20;
-  pp.skull_radius = 17;
-  pp.csf_radius = 15;
-  pp.brain_radius = 13;
+  // Layers 6 mm thick: resolved by every lattice below (2 cells or more across).
+  pp.radius = 30;
+  pp.skull_radius = 24;
+  pp.csf_radius = 18;
+  pp.brain_radius = 12;
+  pp.voxel_size = 0.75;
+  const Phantom ph = makePhantom(pp);
+  const auto vol = std::make_shared<const LabelVolume>(ph.volume);
+  double previousErr = 1e9;
+  for (double cell : {4.0, 2.5, 1.5}) {
+    const Outcome o = cleaveAndCheck(vol, cell, CleaveParams{}, "head cell " + std::to_string(cell));
+    // Volume of every material against the voxels it came from.
+    double err = 0;
+    for (const auto& m : o.r.materials)
+      err = std::max(err, std::abs(m.meshVolume - m.inputVolume) / m.inputVolume);
+    std::printf("head phantom cell %.1f mm: %zu tets, max relative volume error %.4f, dihedral [%.2f, %.2f]\n",
+                cell, o.r.mesh.numTets(), err, o.q.minDihedral, o.q.maxDihedral);
+    EXPECT_LT(err, previousErr) << "cell " << cell;
+    previousErr = err;
+    // Vertices between two layers lie near the sphere that separates them.
+    const TetMesh& m = o.r.mesh;
+    std::vector<std::set<int32_t>> mats(m.points.size());
+    for (size_t t = 0; t < m.tets.size(); ++t)
+      for (int32_t v : m.tets[t]) mats[v].insert(m.materials[t]);
+    const double radii[] = {30, 24, 18, 12}; // between labels (0,1), (1,2), (2,3), (3,4)
+    double worst = 0;
+    for (size_t v = 0; v < m.points.size(); ++v) {
+      if (mats[v].size() != 2) continue;
+      const int32_t a = *mats[v].begin(), b = *mats[v].rbegin();
+      if (b != a + 1) continue;
+      worst = std::max(worst, std::abs(norm(m.points[v]) - radii[a]));
+    }
+    std::printf("  interface vertices within %.3f mm of their sphere\n", worst);
+    EXPECT_LT(worst, 0.5 * cell) << "cell " << cell;
+  }
+  EXPECT_LT(previousErr, 0.03);
+}
+
+TEST(Cleaver, LostMaterialIsReportedNotSilent) {
+  PhantomParams pp;
+  pp.kind = PhantomKind::Blob;
+  pp.radius = 6;
+  pp.voxel_size = 1.0;
+  const Phantom ph = makePhantom(pp);
+  const auto vol = std::make_shared<const LabelVolume>(ph.volume);
+  const Outcome coarse = cleaveAndCheck(vol, 6.0, CleaveParams{}, "blob coarse");
+  ASSERT_EQ(coarse.r.materials.size(), 3u);
+  EXPECT_TRUE(coarse.r.materials[2].lost());
+  EXPECT_DOUBLE_EQ(coarse.r.materials[2].inputVolume, 7.0);
+  Report rep;
+  writeCleaveReport(coarse.r, rep);
+  EXPECT_EQ(std::get<std::string>(*rep.find("materials_lost")), "2");
+  const Outcome fine = cleaveAndCheck(vol, 0.8, CleaveParams{}, "blob fine");
+  EXPECT_FALSE(fine.r.materials[2].lost());
+}
+
+TEST(Cleaver, StripExteriorRemovesTheBackground) {
+  PhantomParams pp;
+  pp.kind = PhantomKind::Sphere;
+  pp.radius = 8;
   pp.voxel_size = 1.0;
   const Phantom ph = makePhantom(pp);
   auto vol = std::make_shared<const LabelVolume>(ph.volume);
   LabelMaterials mats(vol, 1.0);
   NullProgress np;
+  const BackgroundMesh bg = generateRegularBcc(vol->grid, BccParams{1.5, 0.0}, np);
+  CleaveParams cp;
+  cp.strip_exterior = 0;
+  const CleaveResult r = cleave(bg, mats, cp, np);
+  for (int32_t m : r.mesh.materials) EXPECT_EQ(m, 1);
+  const QualityResult q = evaluateQuality(r.mesh, QualityParams{}, np);
+  EXPECT_TRUE(q.valid);
+  // The sphere's surface is the boundary now: no holes (a voxelised surface may touch itself
+  // along an edge, which is why manifoldness is not asserted).
+  EXPECT_EQ(q.openBoundaryEdges, 0);
+  EXPECT_EQ(q.unreferencedVertices, 0);
+  EXPECT_NEAR(q.volume, 4.0 / 3.0 * M_PI * 512, 0.05 * 4.0 / 3.0 * M_PI * 512);
+}
+
+TEST(Cleaver, SpheresIndicatorFunctions) {
+  std::vector<ScalarVolume> v;
+  for (int i = 1; i <= 4; ++i)
+    v.push_back(readScalarVolume(std::string(TETFLOW_SHARED_DATA) + "/spheres" + std::to_string(i) + ".nrrd"));
+  IndicatorMaterials mats(std::move(v));
+  NullProgress np;
+  for (double cell : {1.0, 2.0}) {
+    const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{cell, 0.0}, np);
+    const CleaveResult r = cleave(bg, mats, CleaveParams{}, np);
+    const QualityResult q = evaluateQuality(r.mesh, QualityParams{}, np);
+    EXPECT_TRUE(q.valid);
+    EXPECT_NEAR(q.volume, bg.boxVolume, 1e-9 * bg.boxVolume);
+    EXPECT_EQ(openMaterialSurfaceEdges(r.mesh), 0);
+    EXPECT_GE(q.minDihedral, kMinDihedralBound);
+    for (const auto& m : r.materials) EXPECT_FALSE(m.lost()) << m.label;
+  }
+}
+
+TEST(Cleaver, BadParametersAreInputErrors) {
+  PhantomParams pp;
+  pp.kind = PhantomKind::Sphere;
+  pp.radius = 4;
+  const Phantom ph = makePhantom(pp);
+  auto vol = std::make_shared<const LabelVolume>(ph.volume);
+  LabelMaterials mats(vol, 1.0);
+  NullProgress np;
   const BackgroundMesh bg = generateRegularBcc(vol->grid, BccParams{2.0, 0.0}, np);
-  const CleaveResult r = cleave(bg, mats, CleaveParams{}, np);
-  Vec3 lo, hi;
-  boxOf(vol->grid, lo, hi);
-  const Check c = check(r.mesh, lo, hi);
-  std::printf("tets %zu min vol %g dihedral [%g, %g] warped %lld snaps %lld degen %lld steiner %lld\n",
-              r.mesh.numTets(), c.minVol, c.minDihedral, c.maxDihedral, (long long)r.stats.warpedVertices,
-              (long long)r.stats.snaps, (long long)r.stats.degeneracySnaps, (long long)r.stats.steinerPoints);
-  EXPECT_EQ(c.nonpositive, 0);
-  EXPECT_EQ(c.overshared, 0);
-  EXPECT_EQ(c.boundaryOffBox, 0);
-  EXPECT_NEAR(c.total, bg.boxVolume, 1e-9 * c.total);
+  CleaveParams cp;
+  cp.alpha_long = 0.5;
+  EXPECT_THROW_MSG(cleave(bg, mats, cp, np), InputError, "alpha");
+  EXPECT_THROW_MSG(LabelMaterials(vol, 0.0), InputError, "blend_sigma");
+}
+
+TEST(Cleaver, AggressiveAlphasStillGiveValidMeshes) {
+  // Beyond the defaults warps could flatten background tets; they are cut back instead.
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    const auto vol = randomVolume(0, 500 + seed);
+    CleaveParams cp;
+    cp.alpha_short = 0.49;
+    cp.alpha_long = 0.49;
+    cleaveAndCheck(vol, 1.3, cp, "alpha 0.49 seed " + std::to_string(seed));
+  }
 }

@@ -1,0 +1,96 @@
+// CleaveMesh: lattice cleaving (Algorithms/Cleaving/Cleaver.h) of a background mesh into a
+// conforming multimaterial mesh.
+#include <cmath>
+#include <sstream>
+
+#include "Algorithms/Cleaving/Cleaver.h"
+#include "StandardModules.h"
+
+namespace tetflow {
+
+namespace {
+class CleaveMesh : public Module {
+public:
+  void execute(ExecutionContext& ctx) override {
+    const auto mats = materialsFromInput(ctx.input(0), ctx.getDouble("blend_sigma"));
+    const TetMesh& bgMesh = ctx.inputAs<TetMeshData>(1).value;
+    BackgroundMesh bg;
+    bg.mesh = bgMesh; // the cleaver warps a copy of the vertex positions only
+    bg.mesh.pointFields.clear();
+    bg.mesh.cellFields.clear();
+    auto it = bgMesh.pointFields.find("lattice_kind");
+    if (it != bgMesh.pointFields.end() && it->second.components == 1) {
+      bg.kind.reserve(bgMesh.numPoints());
+      for (double k : it->second.values) bg.kind.push_back(static_cast<LatticeVertexKind>(int(k)));
+    }
+    CleaveParams p;
+    p.alpha_short = ctx.getDouble("alpha_short");
+    p.alpha_long = ctx.getDouble("alpha_long");
+    p.xi = ctx.getDouble("xi");
+    const std::string strip = ctx.getString("strip_exterior");
+    if (strip != "none" && !strip.empty()) {
+      size_t used = 0;
+      long v = 0;
+      try {
+        v = std::stol(strip, &used);
+      } catch (...) {
+        used = 0;
+      }
+      if (used != strip.size())
+        throw InputError("parameter 'strip_exterior' = '" + strip + "': use 'none' or a material label value");
+      p.strip_exterior = static_cast<int32_t>(v);
+    }
+    CleaveResult r = cleave(bg, *mats, p, ctx.progress());
+    writeCleaveReport(r, ctx.report());
+    ctx.report().set("background", bg.kind.empty() ? "unstructured" : "regular_bcc");
+    for (const auto& m : r.materials)
+      if (m.lost()) {
+        std::ostringstream msg;
+        msg << "material " << m.label << " (" << m.inputVolume
+            << " mm^3 in the input) is too small for this lattice and was lost; use a smaller "
+               "cell_size to keep it";
+        ctx.log(msg.str());
+      }
+    ctx.setOutput(0, makeData<TetMeshData>(std::move(r.mesh)));
+  }
+};
+} // namespace
+
+void registerCleaveMesh(ModuleRegistry& r) {
+  const CleaveParams d;
+  ModuleInfo m;
+  m.name = "CleaveMesh";
+  m.category = "Meshing";
+  m.description = "Lattice cleaving: cuts the background mesh along the material interfaces "
+                  "(snapping and warping to keep dihedral angles bounded) and outputs a "
+                  "conforming multimaterial tet mesh with the material label per tet.";
+  m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "labels or indicator functions"},
+              {"background", {PortType::TetMesh}, "background mesh (GenerateBackgroundMesh)"}};
+  m.outputs = {{"mesh", {PortType::TetMesh}, "the cleaved mesh"}};
+  auto dbl = [](std::string n, double def, double min, double max, std::string unit, std::string desc) {
+    ParamSpec s;
+    s.name = std::move(n);
+    s.type = ParamType::Double;
+    s.defaultValue = def;
+    s.min = min;
+    s.max = max;
+    s.unit = std::move(unit);
+    s.description = std::move(desc);
+    return s;
+  };
+  ParamSpec strip;
+  strip.name = "strip_exterior";
+  strip.type = ParamType::String;
+  strip.defaultValue = std::string("none");
+  strip.description = "material label removed after meshing (e.g. 0 for the background), or none";
+  m.params = {dbl("alpha_short", d.alpha_short, 0.0, 0.49, "", "violation threshold on short BCC edges, fraction of edge length (0 = no warping)"),
+              dbl("alpha_long", d.alpha_long, 0.0, 0.49, "", "violation threshold on long BCC edges, fraction of edge length"),
+              dbl("xi", d.xi, 1e-6, 0.5, "", "unstructured backgrounds: alpha = (1/2 - xi) x shortest altitude (seed §5.5.2)"),
+              dbl("blend_sigma", 1.0, 0.05, 10.0, "voxels", "smoothing of label volumes into indicator functions"),
+              strip};
+  m.summaryKeys = {"tets", "materials_lost"};
+  m.factory = [] { return std::make_unique<CleaveMesh>(); };
+  r.add(std::move(m));
+}
+
+} // namespace tetflow
