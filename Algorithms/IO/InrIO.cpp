@@ -33,66 +33,18 @@
 
 #include "../Core/Errors.h"
 #include "FileUtil.h"
+#include "HeaderText.h"
 
 namespace fs = std::filesystem;
 
 namespace tetflow {
 namespace {
 
+using namespace headertext;
+
 constexpr size_t kBlock = 256;
 constexpr size_t kMaxHeader = size_t(1) << 20;
 constexpr std::string_view kMagic = "#INRIMAGE-4#{";
-
-bool isSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
-}
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && isSpace(s.front())) s.remove_prefix(1);
-  while (!s.empty() && isSpace(s.back())) s.remove_suffix(1);
-  return s;
-}
-
-std::string lowerCollapsed(std::string_view s) {
-  std::string out;
-  bool pending = false;
-  for (char c : trim(s)) {
-    if (isSpace(c)) {
-      pending = true;
-      continue;
-    }
-    if (pending && !out.empty()) out += ' ';
-    pending = false;
-    out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  }
-  return out;
-}
-
-std::string shown(std::string_view s) {
-  std::string out = "'";
-  for (size_t i = 0; i < s.size() && i < 60; ++i) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    out += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
-  }
-  if (s.size() > 60) out += "...";
-  return out + "'";
-}
-
-bool parseInt64(std::string_view s, int64_t& out) {
-  s = trim(s);
-  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-  if (s.empty()) return false;
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), out);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
-}
-
-bool parseDouble(std::string_view s, double& out) {
-  s = trim(s);
-  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-  if (s.empty()) return false;
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), out);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
-}
 
 // Length of the header (through the newline ending the "##}" line), or 0 when `text` does not
 // contain the whole header yet.
@@ -198,11 +150,11 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
 
   if (!type) throw InputError(path + ": the INR header has no TYPE");
   if (!pixsize) throw InputError(path + ": the INR header has no PIXSIZE");
-  const std::string t = lowerCollapsed(type->value);
+  const std::string t = canonical(type->value);
   if (t != "unsigned fixed" && t != "signed fixed" && t != "float")
     failLine(type->line, "unknown TYPE " + shown(type->value) +
                              " (expected 'unsigned fixed', 'signed fixed' or 'float')");
-  const std::string ps = lowerCollapsed(pixsize->value);
+  const std::string ps = canonical(pixsize->value);
   int64_t bits = 0;
   {
     const size_t sp = ps.find(' ');
@@ -232,7 +184,7 @@ InrInfo parseHeader(std::string_view text, const std::string& path) {
   }
 
   if (cpu) {
-    const std::string c = lowerCollapsed(cpu->value);
+    const std::string c = canonical(cpu->value);
     if (c == "decm" || c == "alpha" || c == "pc")
       info.bigEndian = false;
     else if (c == "sun" || c == "sgi")
