@@ -396,18 +396,24 @@ void rasToLps(Mat3& d, Vec3& o) {
   o[1] = -o[1];
 }
 
-} // namespace
-
-RawVolume readNifti(const std::string& path) {
-  requireReadableFile(path);
-  precheckNifti(path);
-  vtkNew<vtkNIFTIImageReader> reader;
+// Run a VTK reader on `path`; its error events become an InputError naming the file.
+template <class Reader>
+void runVtkReader(Reader* reader, const std::string& path) {
   vtkNew<VtkErrorCatcher> catcher;
   catcher->attach(reader);
   catcher->attach(reader->GetExecutive());
   reader->SetFileName(path.c_str());
   reader->Update();
   catcher->throwIfAny(path);
+}
+
+} // namespace
+
+RawVolume readNifti(const std::string& path) {
+  requireReadableFile(path);
+  precheckNifti(path);
+  vtkNew<vtkNIFTIImageReader> reader;
+  runVtkReader(reader.Get(), path);
   RawVolume raw = rawFromImage(reader->GetOutput(), path);
   vtkMatrix4x4* m = reader->GetQFormMatrix();
   if (!m) m = reader->GetSFormMatrix();
@@ -446,12 +452,7 @@ RawVolume readMetaImage(const std::string& path) {
   const MetaHeader h = scanMetaHeader(path);
   precheckMeta(path, h);
   vtkNew<vtkMetaImageReader> reader;
-  vtkNew<VtkErrorCatcher> catcher;
-  catcher->attach(reader);
-  catcher->attach(reader->GetExecutive());
-  reader->SetFileName(path.c_str());
-  reader->Update();
-  catcher->throwIfAny(path);
+  runVtkReader(reader.Get(), path);
   RawVolume raw = rawFromImage(reader->GetOutput(), path);
   double o[3];
   reader->GetOutput()->GetOrigin(o);
@@ -466,12 +467,7 @@ RawVolume readMetaImage(const std::string& path) {
 RawVolume readVti(const std::string& path) {
   requireReadableFile(path);
   vtkNew<vtkXMLImageDataReader> reader;
-  vtkNew<VtkErrorCatcher> catcher;
-  catcher->attach(reader);
-  catcher->attach(reader->GetExecutive());
-  reader->SetFileName(path.c_str());
-  reader->Update();
-  catcher->throwIfAny(path);
+  runVtkReader(reader.Get(), path);
   vtkImageData* img = reader->GetOutput();
   RawVolume raw = rawFromImage(img, path);
   // VTK image extents may start anywhere: the origin is that of voxel (extent min).
