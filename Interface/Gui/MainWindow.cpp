@@ -1,0 +1,487 @@
+#include "MainWindow.h"
+
+#include <QAction>
+#include <QApplication>
+#include <QCloseEvent>
+#include <QDateTime>
+#include <QDir>
+#include <QDockWidget>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QGuiApplication>
+#include <QLabel>
+#include <QMenuBar>
+#include <QMessageBox>
+#include <QPlainTextEdit>
+#include <QSettings>
+#include <QStatusBar>
+#include <QToolBar>
+#include <QUndoStack>
+
+#include <deque>
+#include <set>
+
+#include "Canvas.h"
+#include "ExecutionController.h"
+#include "GuiStyle.h"
+#include "MeshView.h"
+#include "Palette.h"
+#include "ParameterPanel.h"
+#include "ReportView.h"
+#include "Dataflow/NetworkFile.h"
+
+namespace tetflow::gui {
+
+MainWindow::MainWindow(const ModuleRegistry& registry, QWidget* parent)
+    : QMainWindow(parent), registry_(registry) {
+  undo_ = new QUndoStack(this);
+  scene_ = new NetworkScene(undo_, this);
+  view_ = new NetworkView(scene_);
+  setCentralWidget(view_);
+  exec_ = new ExecutionController(this);
+  createDocks();
+  createActions();
+
+  connect(scene_, &NetworkScene::message, this, &MainWindow::log);
+  connect(scene_, &QGraphicsScene::selectionChanged, this, &MainWindow::onSelectionChanged);
+  connect(scene_, &NetworkScene::parameterChanged, params_, &ParameterPanel::onParameterChanged);
+  connect(scene_, &NetworkScene::moduleRemoved, params_, &ParameterPanel::onModuleRemoved);
+  connect(scene_, &NetworkScene::moduleContextAction, this, &MainWindow::onContextAction);
+  connect(params_, &ParameterPanel::message, this, &MainWindow::log);
+  connect(palette_, &ModulePalette::addRequested, this, [this](const QString& name) {
+    const QPointF c = view_->mapToScene(view_->viewport()->rect().center());
+    const double off = 20.0 * (addCount_++ % 8);
+    const std::string id = scene_->addModule(ss(name), c + QPointF(-80 + off, -30 + off));
+    selectModule(qs(id));
+  });
+  connect(view_, &NetworkView::dropModule, this, [this](const QString& name, QPointF pos) {
+    const std::string id = scene_->addModule(ss(name), pos - QPointF(80, 29));
+    selectModule(qs(id));
+  });
+  connect(undo_, &QUndoStack::cleanChanged, this, [this] { updateTitle(); });
+  connect(exec_, &ExecutionController::moduleStatus, this, &MainWindow::onModuleStatus);
+  connect(exec_, &ExecutionController::moduleProgress, this,
+          [this](const QString& id, const QString& stage, double f) { scene_->setModuleProgress(ss(id), stage, f); });
+  connect(exec_, &ExecutionController::finished, this, &MainWindow::onExecutionFinished);
+
+  auto net = std::make_unique<Network>(registry_);
+  net->setBaseDir(ss(QDir::currentPath()));
+  attachNetwork(std::move(net));
+  resize(1280, 800);
+}
+
+MainWindow::~MainWindow() {
+  scene_->setNetwork(nullptr);
+  if (exec_->isRunning()) {
+    exec_->cancel();
+    exec_->waitForFinished();
+  }
+}
+
+void MainWindow::createDocks() {
+  setDockNestingEnabled(true);
+  palette_ = new ModulePalette(registry_);
+  auto* palDock = new QDockWidget(tr("Modules"), this);
+  palDock->setObjectName("modules");
+  palDock->setWidget(palette_);
+  addDockWidget(Qt::LeftDockWidgetArea, palDock);
+
+  params_ = new ParameterPanel(undo_);
+  auto* parDock = new QDockWidget(tr("Parameters"), this);
+  parDock->setObjectName("parameters");
+  parDock->setWidget(params_);
+  addDockWidget(Qt::LeftDockWidgetArea, parDock);
+  splitDockWidget(palDock, parDock, Qt::Vertical);
+
+  viewDock_ = new QDockWidget(tr("3D view"), this);
+  viewDock_->setObjectName("view3d");
+  // Qt's offscreen platform crashes with a QOpenGLWidget in a shown window (PLATFORM.md 5).
+  if (QGuiApplication::platformName() == "offscreen") {
+    auto* l = new QLabel(tr("3D view unavailable on the offscreen platform"));
+    l->setAlignment(Qt::AlignCenter);
+    viewDock_->setWidget(l);
+  } else {
+    mesh_ = new MeshView;
+    viewDock_->setWidget(mesh_);
+  }
+  addDockWidget(Qt::RightDockWidgetArea, viewDock_);
+
+  log_ = new QPlainTextEdit;
+  log_->setReadOnly(true);
+  log_->setMaximumBlockCount(5000);
+  logDock_ = new QDockWidget(tr("Log"), this);
+  logDock_->setObjectName("log");
+  logDock_->setWidget(log_);
+  addDockWidget(Qt::BottomDockWidgetArea, logDock_);
+
+  report_ = new ReportView;
+  reportDock_ = new QDockWidget(tr("Report"), this);
+  reportDock_->setObjectName("report");
+  reportDock_->setWidget(report_);
+  addDockWidget(Qt::BottomDockWidgetArea, reportDock_);
+  tabifyDockWidget(logDock_, reportDock_);
+  logDock_->raise();
+  resizeDocks({palDock, viewDock_}, {230, 520}, Qt::Horizontal);
+  resizeDocks({palDock, parDock}, {250, 350}, Qt::Vertical);
+  resizeDocks({logDock_}, {210}, Qt::Vertical);
+}
+
+void MainWindow::createActions() {
+  QMenu* file = menuBar()->addMenu(tr("&File"));
+  QToolBar* tb = addToolBar(tr("Main"));
+  tb->setObjectName("maintoolbar");
+  auto add = [&](QMenu* m, const QString& text, QKeySequence key, auto slot, bool toolbar = false) {
+    QAction* a = m->addAction(text);
+    if (!key.isEmpty()) a->setShortcut(key);
+    connect(a, &QAction::triggered, this, slot);
+    if (toolbar) tb->addAction(a);
+    return a;
+  };
+  add(file, tr("&New"), QKeySequence::New, [this] { if (maybeSave()) newNetwork(); }, true);
+  add(file, tr("&Open…"), QKeySequence::Open, [this] { open(); }, true);
+  recentMenu_ = file->addMenu(tr("Open &Recent"));
+  add(file, tr("&Save"), QKeySequence::Save, [this] { save(); }, true);
+  add(file, tr("Save &As…"), QKeySequence::SaveAs, [this] { saveAs(); });
+  file->addSeparator();
+  add(file, tr("&Quit"), QKeySequence::Quit, [this] { close(); });
+  rebuildRecentMenu();
+
+  QMenu* edit = menuBar()->addMenu(tr("&Edit"));
+  QAction* undo = undo_->createUndoAction(this, tr("&Undo"));
+  undo->setShortcut(QKeySequence::Undo);
+  QAction* redo = undo_->createRedoAction(this, tr("&Redo"));
+  redo->setShortcut(QKeySequence::Redo);
+  edit->addAction(undo);
+  edit->addAction(redo);
+  tb->addSeparator();
+  tb->addAction(undo);
+  tb->addAction(redo);
+  edit->addSeparator();
+  add(edit, tr("&Delete"), QKeySequence::Delete, [this] { scene_->deleteSelection(); });
+  add(edit, tr("Select &All"), QKeySequence::SelectAll, [this] {
+    for (auto& [id, m] : scene_->moduleItems()) m->setSelected(true);
+  });
+
+  QMenu* viewMenu = menuBar()->addMenu(tr("&View"));
+  add(viewMenu, tr("Zoom &In"), QKeySequence::ZoomIn, [this] { view_->zoomBy(1.2); });
+  add(viewMenu, tr("Zoom &Out"), QKeySequence::ZoomOut, [this] { view_->zoomBy(1 / 1.2); });
+  add(viewMenu, tr("&Fit Network"), QKeySequence(Qt::CTRL | Qt::Key_0), [this] { view_->fitAll(); }, true);
+  viewMenu->addSeparator();
+  for (QDockWidget* d : findChildren<QDockWidget*>()) viewMenu->addAction(d->toggleViewAction());
+
+  QMenu* run = menuBar()->addMenu(tr("&Network"));
+  tb->addSeparator();
+  executeAct_ = add(run, tr("&Execute All"), QKeySequence(Qt::CTRL | Qt::Key_E), [this] { executeAll(); }, true);
+  executeAct_->setShortcuts({QKeySequence(Qt::CTRL | Qt::Key_E), QKeySequence(Qt::Key_F5)});
+  add(run, tr("Execute &Selected and Downstream"), QKeySequence(Qt::SHIFT | Qt::Key_F5), [this] {
+    const auto ids = scene_->selectedModuleIds();
+    if (!ids.empty()) executeFrom(qs(ids.front()));
+  });
+  cancelAct_ = add(run, tr("&Cancel"), QKeySequence(Qt::Key_Escape), [this] { cancelExecution(); }, true);
+  cancelAct_->setEnabled(false);
+}
+
+void MainWindow::attachNetwork(std::unique_ptr<Network> net) {
+  params_->setNetwork(nullptr);
+  scene_->setNetwork(nullptr);
+  net_ = std::move(net);
+  scene_->setNetwork(net_.get());
+  params_->setNetwork(net_.get());
+  undo_->clear();
+  exec_->reset();
+  report_->showMessage(tr("Select a module to see its report"));
+  if (mesh_) mesh_->clearData(tr("Execute the network and select a module with a mesh or volume output"));
+  updateTitle();
+  view_->fitAll();
+}
+
+void MainWindow::raiseReport() { reportDock_->raise(); }
+
+bool MainWindow::isModified() const { return !undo_->isClean(); }
+
+void MainWindow::updateTitle() {
+  setWindowModified(isModified());
+  setWindowTitle(QString("TetFlow — %1[*]").arg(file_.isEmpty() ? tr("untitled.srn") : QFileInfo(file_).fileName()));
+}
+
+void MainWindow::log(const QString& text) {
+  log_->appendPlainText(QTime::currentTime().toString("HH:mm:ss  ") + text);
+}
+
+void MainWindow::newNetwork() {
+  if (exec_->isRunning()) {
+    log(tr("Cancel the running execution first"));
+    return;
+  }
+  auto net = std::make_unique<Network>(registry_);
+  net->setBaseDir(ss(QDir::currentPath()));
+  file_.clear();
+  attachNetwork(std::move(net));
+}
+
+bool MainWindow::openFile(const QString& path) {
+  if (exec_->isRunning()) {
+    log(tr("Cancel the running execution before opening another network"));
+    return false;
+  }
+  std::unique_ptr<Network> net;
+  try {
+    net = std::make_unique<Network>(loadNetwork(ss(path), registry_));
+  } catch (const NetworkLoadError& e) {
+    log(tr("Cannot open %1:").arg(path));
+    for (const auto& p : e.problems())
+      log(QString("  line %1%2: %3").arg(p.line).arg(p.moduleId.empty() ? "" : ", module " + qs(p.moduleId), qs(p.message)));
+    if (interactive_) QMessageBox::critical(this, tr("Cannot open network"), qs(e.what()));
+    return false;
+  } catch (const std::exception& e) {
+    log(tr("Cannot open %1: %2").arg(path, qs(e.what())));
+    if (interactive_) QMessageBox::critical(this, tr("Cannot open network"), qs(e.what()));
+    return false;
+  }
+  file_ = QFileInfo(path).absoluteFilePath();
+  attachNetwork(std::move(net));
+  addRecent(file_);
+  log(tr("Opened %1 (%2 modules, %3 connections)")
+          .arg(file_)
+          .arg(net_->modules().size())
+          .arg(net_->connections().size()));
+  return true;
+}
+
+bool MainWindow::saveFile(const QString& path) {
+  try {
+    saveNetwork(ss(path), *net_);
+  } catch (const std::exception& e) {
+    log(tr("Cannot save %1: %2").arg(path, qs(e.what())));
+    if (interactive_) QMessageBox::critical(this, tr("Cannot save network"), qs(e.what()));
+    return false;
+  }
+  file_ = QFileInfo(path).absoluteFilePath();
+  // Relative file names in the network now mean "relative to this file's folder".
+  net_->setBaseDir(ss(QFileInfo(file_).absolutePath()));
+  undo_->setClean();
+  addRecent(file_);
+  updateTitle();
+  log(tr("Saved %1").arg(file_));
+  return true;
+}
+
+bool MainWindow::save() { return file_.isEmpty() ? saveAs() : saveFile(file_); }
+
+bool MainWindow::saveAs() {
+  QString path = QFileDialog::getSaveFileName(this, tr("Save network"), file_.isEmpty() ? QDir::currentPath() : file_,
+                                              tr("SCIRun networks (*.srn)"));
+  if (path.isEmpty()) return false;
+  if (!path.endsWith(".srn")) path += ".srn";
+  return saveFile(path);
+}
+
+void MainWindow::open() {
+  if (!maybeSave()) return;
+  const QString path = QFileDialog::getOpenFileName(this, tr("Open network"),
+                                                    file_.isEmpty() ? QDir::currentPath() : QFileInfo(file_).absolutePath(),
+                                                    tr("SCIRun networks (*.srn);;All files (*)"));
+  if (!path.isEmpty()) openFile(path);
+}
+
+bool MainWindow::maybeSave() {
+  if (!isModified() || !interactive_) return true;
+  const auto r = QMessageBox::warning(this, tr("Unsaved changes"),
+                                      tr("The network has unsaved changes. Save them?"),
+                                      QMessageBox::Save | QMessageBox::Discard | QMessageBox::Cancel);
+  if (r == QMessageBox::Save) return save();
+  return r == QMessageBox::Discard;
+}
+
+void MainWindow::addRecent(const QString& path) {
+  QSettings s("TetFlow", "tetflow-gui");
+  QStringList list = s.value("recentFiles").toStringList();
+  list.removeAll(path);
+  list.prepend(path);
+  while (list.size() > 8) list.removeLast();
+  s.setValue("recentFiles", list);
+  rebuildRecentMenu();
+}
+
+void MainWindow::rebuildRecentMenu() {
+  recentMenu_->clear();
+  QSettings s("TetFlow", "tetflow-gui");
+  const QStringList list = s.value("recentFiles").toStringList();
+  for (const QString& f : list) {
+    QAction* a = recentMenu_->addAction(QFileInfo(f).fileName() + "  —  " + QFileInfo(f).absolutePath());
+    connect(a, &QAction::triggered, this, [this, f] {
+      if (maybeSave()) openFile(f);
+    });
+  }
+  recentMenu_->setEnabled(!list.isEmpty());
+}
+
+void MainWindow::closeEvent(QCloseEvent* e) {
+  if (!maybeSave()) {
+    e->ignore();
+    return;
+  }
+  if (exec_->isRunning()) {
+    exec_->cancel();
+    exec_->waitForFinished();
+  }
+  e->accept();
+}
+
+bool MainWindow::executeAll() {
+  if (!exec_->start(*net_)) {
+    log(tr("The network is already executing"));
+    return false;
+  }
+  executeAct_->setEnabled(false);
+  cancelAct_->setEnabled(true);
+  log(tr("Executing %1 modules…").arg(net_->modules().size()));
+  return true;
+}
+
+bool MainWindow::executeFrom(const QString& id) {
+  if (!net_->module(ss(id))) return false;
+  if (!exec_->start(*net_, {ss(id)})) {
+    log(tr("The network is already executing"));
+    return false;
+  }
+  executeAct_->setEnabled(false);
+  cancelAct_->setEnabled(true);
+  log(tr("Executing %1 and downstream…").arg(id));
+  return true;
+}
+
+void MainWindow::cancelExecution() {
+  if (exec_->isRunning()) {
+    exec_->cancel();
+    log(tr("Cancelling…"));
+  }
+}
+
+void MainWindow::onModuleStatus(const QString& id, int status) {
+  scene_->setModuleStatus(ss(id), ModuleStatus(status));
+}
+
+void MainWindow::onExecutionFinished(bool success) {
+  executeAct_->setEnabled(true);
+  cancelAct_->setEnabled(false);
+  const auto& sum = exec_->lastSummary();
+  for (const auto& id : sum.order) {
+    const ModuleState* st = exec_->state(id);
+    if (!st) continue;
+    scene_->setModuleStatus(id, st->status, st->seconds);
+    QString line = QString("%1 %2 %3 %4 s").arg(qs(id), qs(st->moduleName),
+                                                st->reused ? "reused" : moduleStatusName(st->status))
+                       .arg(st->seconds, 0, 'f', 3);
+    if (st->status == ModuleStatus::Error) line += "  " + qs(st->error);
+    if (st->status == ModuleStatus::Skipped) line += tr("  (not run: upstream %1 failed)").arg(qs(st->skippedBecause));
+    log(line);
+    if (!st->reused)
+      for (const auto& m : st->messages) log("    " + qs(m));
+  }
+  if (!exec_->lastError().isEmpty()) log(tr("Execution failed: %1").arg(exec_->lastError()));
+  log(tr("%1: %2 ran, %3 reused, %4 failed, %5 skipped, %6 cancelled in %7 s")
+          .arg(success ? tr("Done") : tr("Finished with problems"))
+          .arg(sum.ran).arg(sum.reused).arg(sum.failed).arg(sum.skipped).arg(sum.cancelled)
+          .arg(sum.seconds, 0, 'f', 2));
+  const auto sel = scene_->selectedModuleIds();
+  if (sel.size() == 1) showModuleResults(sel.front());
+}
+
+void MainWindow::selectModule(const QString& id) {
+  scene_->clearSelection();
+  if (ModuleItem* m = scene_->moduleItem(ss(id))) {
+    m->setSelected(true);
+    view_->ensureVisible(m);
+  }
+}
+
+void MainWindow::onSelectionChanged() {
+  const auto ids = scene_->selectedModuleIds();
+  if (ids.size() != 1) {
+    if (ids.empty()) params_->showModule("");
+    return;
+  }
+  if (params_->moduleId() != ids.front()) params_->showModule(ids.front());
+  showModuleResults(ids.front());
+}
+
+void MainWindow::showModuleResults(const std::string& id) {
+  const ModuleNode* node = net_->module(id);
+  if (!node) return;
+  if (exec_->isRunning()) {
+    report_->showMessage(tr("%1 (%2): executing…").arg(qs(id), qs(node->info->name)));
+    return;
+  }
+  const ModuleState* st = exec_->state(id);
+  const QString title = QString("%1 (%2)").arg(qs(id), qs(node->info->name));
+  if (!st || st->moduleName != node->info->name || st->status == ModuleStatus::Idle) {
+    report_->showMessage(tr("%1: not executed yet").arg(title));
+    if (mesh_) mesh_->clearData(tr("%1: not executed yet").arg(title));
+    return;
+  }
+  if (st->status == ModuleStatus::Error) report_->showMessage(title + ": " + qs(st->error));
+  else report_->showReport(QString("%1 — %2, %3 s").arg(title, moduleStatusName(st->status)).arg(st->seconds, 0, 'f', 3),
+                           st->report);
+  if (!mesh_) return;
+  DataPtr shown;
+  for (const auto& d : st->outputs)
+    if (d && d->type() == PortType::TetMesh) {
+      shown = d;
+      break;
+    }
+  if (!shown)
+    for (const auto& d : st->outputs)
+      if (d && d->type() == PortType::LabelVolume) {
+        shown = d;
+        break;
+      }
+  if (shown) mesh_->showData(shown, labelNames(id), title);
+  else mesh_->clearData(tr("%1 has no mesh or label volume output").arg(title));
+}
+
+std::map<int, QString> MainWindow::labelNames(const std::string& id) const {
+  // Names for the head phantom's labels when the data comes from CreatePhantom kind=head.
+  std::map<int, QString> names;
+  std::deque<std::string> q{id};
+  std::set<std::string> seen;
+  while (!q.empty()) {
+    const std::string cur = q.front();
+    q.pop_front();
+    if (!seen.insert(cur).second) continue;
+    const ModuleNode* n = net_->module(cur);
+    if (!n) continue;
+    if (n->info->name == "CreatePhantom") {
+      auto it = n->params.find("kind");
+      if (it != n->params.end() && std::get_if<std::string>(&it->second) &&
+          std::get<std::string>(it->second) == "head")
+        return {{0, tr("air")}, {1, tr("scalp")}, {2, tr("skull")}, {3, tr("CSF")}, {4, tr("brain")}};
+    }
+    for (const auto& up : net_->upstream(cur)) q.push_back(up);
+  }
+  return names;
+}
+
+void MainWindow::showModuleLog(const std::string& id) {
+  logDock_->raise();
+  const ModuleState* st = exec_->state(id);
+  if (!st || st->status == ModuleStatus::Idle) {
+    log(tr("%1: not executed yet").arg(qs(id)));
+    return;
+  }
+  log(tr("%1: %2, %3 s").arg(qs(id), moduleStatusName(st->status)).arg(st->seconds, 0, 'f', 3));
+  for (const auto& s : st->stages) log(QString("    stage %1: %2 s").arg(qs(s.name)).arg(s.seconds, 0, 'f', 3));
+  for (const auto& m : st->messages) log("    " + qs(m));
+  if (!st->error.empty()) log("    error: " + qs(st->error));
+}
+
+void MainWindow::onContextAction(const QString& id, const QString& action) {
+  if (action == "execute") executeFrom(id);
+  else if (action == "report") {
+    selectModule(id);
+    reportDock_->raise();
+    showModuleResults(ss(id));
+  } else if (action == "log") showModuleLog(ss(id));
+}
+
+} // namespace tetflow::gui

@@ -1,0 +1,107 @@
+#pragma once
+// tetflow-gui main window: network canvas (centre), module palette and parameter panel (left),
+// 3D view (right), log and report (bottom). The window never owns the network's rules: it holds
+// the current tetflow::Network, the canvas observes it, and every edit goes through the network
+// API (undoable commands). Execution runs off the GUI thread (ExecutionController).
+#include <QMainWindow>
+
+#include <map>
+#include <memory>
+
+#include "Dataflow/Network.h"
+
+class QUndoStack;
+class QPlainTextEdit;
+class QDockWidget;
+class QMenu;
+class QAction;
+
+namespace tetflow::gui {
+
+class NetworkScene;
+class NetworkView;
+class ModulePalette;
+class ParameterPanel;
+class ReportView;
+class MeshView;
+class ExecutionController;
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+public:
+  explicit MainWindow(const ModuleRegistry& registry, QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  Network& network() { return *net_; }
+  NetworkScene* scene() const { return scene_; }
+  NetworkView* view() const { return view_; }
+  QUndoStack* undoStack() const { return undo_; }
+  ModulePalette* palette() const { return palette_; }
+  ParameterPanel* parameters() const { return params_; }
+  ReportView* reportView() const { return report_; }
+  MeshView* meshView() const { return mesh_; } // nullptr on platforms without OpenGL
+  ExecutionController* execution() const { return exec_; }
+  QPlainTextEdit* logView() const { return log_; }
+  const QString& currentFile() const { return file_; }
+  bool isModified() const;
+
+  // Commands (also used by tests and the command line; no dialogs unless prompts are enabled).
+  bool openFile(const QString& path);
+  bool saveFile(const QString& path);
+  void newNetwork();
+  bool executeAll();
+  bool executeFrom(const QString& moduleId); // this module and everything downstream
+  void cancelExecution();
+  void selectModule(const QString& id);
+  // Unsaved-changes prompts and error message boxes (off for tests/screenshots).
+  void setInteractive(bool on) { interactive_ = on; }
+  void log(const QString& text);
+  void raiseReport(); // bring the Report tab to the front
+
+protected:
+  void closeEvent(QCloseEvent* e) override;
+
+private slots:
+  void onSelectionChanged();
+  void onModuleStatus(const QString& id, int status);
+  void onExecutionFinished(bool success);
+  void onContextAction(const QString& id, const QString& action);
+
+private:
+  void createActions();
+  void createDocks();
+  void attachNetwork(std::unique_ptr<Network> net);
+  bool maybeSave();
+  bool save();
+  bool saveAs();
+  void open();
+  void addRecent(const QString& path);
+  void rebuildRecentMenu();
+  void updateTitle();
+  void showModuleResults(const std::string& id);
+  void showModuleLog(const std::string& id);
+  std::map<int, QString> labelNames(const std::string& id) const;
+
+  const ModuleRegistry& registry_;
+  std::unique_ptr<Network> net_;
+  QUndoStack* undo_;
+  NetworkScene* scene_;
+  NetworkView* view_;
+  ModulePalette* palette_ = nullptr;
+  ParameterPanel* params_ = nullptr;
+  ReportView* report_ = nullptr;
+  MeshView* mesh_ = nullptr;
+  QPlainTextEdit* log_ = nullptr;
+  QDockWidget* logDock_ = nullptr;
+  QDockWidget* reportDock_ = nullptr;
+  QDockWidget* viewDock_ = nullptr;
+  ExecutionController* exec_;
+  QString file_;
+  QMenu* recentMenu_ = nullptr;
+  QAction* executeAct_ = nullptr;
+  QAction* cancelAct_ = nullptr;
+  bool interactive_ = true;
+  int addCount_ = 0;
+};
+
+} // namespace tetflow::gui

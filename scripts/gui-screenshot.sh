@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Screenshots of tetflow-gui for the README, taken by the application itself under Xvfb:
+# it opens a net, executes it, selects a module, sets up the 3D view and grabs its own window.
+#
+#   scripts/gui-screenshot.sh [BUILD_DIR]      (default: build) -> docs/tetflow-gui-*.png
+#
+# Outputs of the nets (WriteMesh files) go to BUILD_DIR/gui-screenshot-out, not into Nets/.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${1:-build}
+case "$build" in /*) ;; *) build="$here/$build" ;; esac
+gui="$build/Interface/tetflow-gui"
+out="$build/gui-screenshot-out"
+mkdir -p "$here/docs" "$out"
+shot() {
+  xvfb-run -a -s '-screen 0 1280x800x24' "$gui" --output-dir "$out" --size 1280x800 "$@"
+}
+# Head phantom: the cleaved mesh, clipped at y = 0 to show scalp, skull, CSF and brain.
+shot "$here/Nets/default.srn" --select m3 --clip y:0.5 --screenshot "$here/docs/tetflow-gui-cleave.png"
+# The same net: EvaluateQuality's mesh coloured by minimum dihedral angle, with its report and
+# histogram.
+shot "$here/Nets/default.srn" --select m4 --color min_dihedral --clip y:0.5 --show-report \
+  --screenshot "$here/docs/tetflow-gui-quality.png"
