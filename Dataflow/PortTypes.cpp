@@ -60,4 +60,12 @@ std::string MaterialsData::summary() const {
   return "Materials: " + (value ? value->describe() : std::string("none"));
 }
 
+template <>
+std::string MatrixData::summary() const {
+  if (!value) return "Matrix: none";
+  std::ostringstream s;
+  s << "Matrix " << value->rows() << "x" << value->cols() << ", " << value->nonZeros() << " non-zeros";
+  return s.str();
+}
+
 } // namespace tetflow

@@ -1,6 +1,8 @@
 #pragma once
 // What travels on the wires (DESIGN §2). Every data object is immutable once sent and carries a
 // process-unique identity, so the executor can tell whether a module's inputs changed.
+#include <Eigen/SparseCore>
+
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -60,11 +62,15 @@ using TetMeshData = DataOf<TetMesh, PortType::TetMesh>;
 using ReportData = DataOf<Report, PortType::Report>;
 // A set of indicator functions (or labels seen as such); shared, immutable.
 using MaterialsData = DataOf<std::shared_ptr<const MaterialSet>, PortType::Materials>;
+// A sparse matrix (e.g. AssembleFEMPoisson's reduced stiffness matrix K, both triangles stored,
+// compressed, column-major); shared, immutable.
+using MatrixData = DataOf<std::shared_ptr<const Eigen::SparseMatrix<double>>, PortType::Matrix>;
 template <> std::string LabelVolumeData::summary() const;
 template <> std::string ScalarVolumeData::summary() const;
 template <> std::string TetMeshData::summary() const;
 template <> std::string ReportData::summary() const;
 template <> std::string MaterialsData::summary() const;
+template <> std::string MatrixData::summary() const;
 
 template <class D, class T>
 std::shared_ptr<const D> makeData(T&& value) {

@@ -14,6 +14,7 @@ void registerStandardModules(ModuleRegistry& r) {
   registerReadIndicatorFunctions(r);
   registerGenerateBackgroundMesh(r);
   registerCleaveMesh(r);
+  registerAssembleFEMPoisson(r);
 }
 
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma) {

@@ -18,6 +18,7 @@ void registerEvaluateQuality(ModuleRegistry& r);
 void registerReadIndicatorFunctions(ModuleRegistry& r);
 void registerGenerateBackgroundMesh(ModuleRegistry& r);
 void registerCleaveMesh(ModuleRegistry& r);
+void registerAssembleFEMPoisson(ModuleRegistry& r);
 
 // "LabelVolume or Materials" inputs: a label volume becomes LabelMaterials (blendSigma voxels).
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma);

@@ -1,0 +1,122 @@
+#pragma once
+// Iterative solvers for the reduced SPD system K x = b (DESIGN §6 "Solver", §7: configured, run,
+// then queried, like MFEM's IterativeSolver).
+//
+//   MINRES  preconditioned MINRES of Paige & Saunders (SIAM J. Numer. Anal. 12, 1975), in the
+//           recurrences of their minres.m: Lanczos on M^-1 K, QR of the tridiagonal by Givens
+//           rotations, x updated by a three-term recurrence.
+//   CG      preconditioned conjugate gradients (Hestenes & Stiefel).
+// Preconditioner M = diag(K) (Jacobi) or M = I (none). x0 = 0.
+//
+// Stopping rule (both solvers): stop after iteration k when the preconditioned residual norm
+//   ||r_k||_{M^-1} = sqrt(r_k^T M^-1 r_k) <= tol * ||b||_{M^-1}      (r_k = b - K x_k),
+// i.e. relativeResidual() <= tol. MINRES tracks ||r_k||_{M^-1} by its recurrence (phibar; equal
+// in exact arithmetic); CG computes it from r_k and z_k = M^-1 r_k. With M = I it is the 2-norm.
+// An iteration is one product with K. Not converging within max_iterations is a status
+// (converged() == false), not an exception; so is a breakdown (CG: p^T K p <= 0, i.e. K not
+// positive definite; either solver: the preconditioner is not positive definite).
+//
+// After solve(): iterations(), relativeResidual() (the preconditioned relative residual above,
+// last iterate), trueResidual() = ||b - K x||_2 / ||b||_2 (computed once at the end),
+// residualHistory() (relative preconditioned residual, entry 0 = 1 for x0 = 0, then one per
+// iteration), and the Lanczos tridiagonal of the run (lanczos(): its extreme eigenvalues are
+// Ritz values of M^-1 K, used by Conditioning.h as a cheap condition estimate).
+//
+// Parallelism: the sparse matrix-vector product is parallel (OpenMP, multiplySymmetric: each
+// row by one thread); the vector updates are fused loops over fixed chunks of 4096 entries in
+// parallel, and every inner product adds its per-chunk partial sums in chunk order. Iterates,
+// residuals and iteration counts are therefore bitwise independent of the thread count. Work per
+// iteration beyond the mat-vec: MINRES 4 passes over 2-5 vectors, CG 3. The monitor callback and
+// the Progress sink are called from the calling thread; progress.checkCancel() is called every
+// iteration (throws Cancelled).
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "Algorithms/Core/Progress.h"
+#include "Assembly.h"
+
+namespace tetflow {
+
+enum class SolverKind : int { Minres = 0, Cg = 1 };
+const char* solverKindName(SolverKind k);
+SolverKind solverKindFromName(const std::string& name); // InputError listing the names
+
+enum class PreconditionerKind : int { Jacobi = 0, None = 1 };
+const char* preconditionerKindName(PreconditionerKind k);
+PreconditionerKind preconditionerKindFromName(const std::string& name);
+
+enum class SolverStatus : int { NotRun = 0, Converged = 1, MaxIterations = 2, Breakdown = 3 };
+const char* solverStatusName(SolverStatus s); // "not_run", "converged", "max_iterations", "breakdown"
+
+struct SolverParams {
+  SolverKind kind = SolverKind::Minres;
+  PreconditionerKind preconditioner = PreconditionerKind::Jacobi;
+  double tolerance = 1e-8;         // relative, in (0, 1)
+  int64_t max_iterations = 10000;  // >= 1
+  // Throws InputError naming the parameter (tolerance, max_iterations) when out of range.
+  void validate() const;
+};
+
+// Symmetric tridiagonal T_k of the preconditioned Lanczos process: diagonal[0..k), offDiagonal[i]
+// couples i and i+1 (k-1 entries are used for T_k; one more may be stored).
+struct LanczosTridiagonal {
+  std::vector<double> diagonal;
+  std::vector<double> offDiagonal;
+  size_t steps() const { return diagonal.size(); }
+};
+
+class IterativeSolver {
+public:
+  // (iteration k >= 1, relative preconditioned residual after it)
+  using Monitor = std::function<void(int64_t, double)>;
+
+  IterativeSolver() = default;
+  explicit IterativeSolver(const SolverParams& p) : params_(p) {}
+
+  // --- configure ---
+  void setParams(const SolverParams& p) { params_ = p; }
+  const SolverParams& params() const { return params_; }
+  // K must be square, symmetric with both triangles stored, compressed, and outlive solve().
+  // With the Jacobi preconditioner every diagonal entry must be > 0 (checked in solve()).
+  void setOperator(const SparseMatrix& K) { K_ = &K; }
+  void setMonitor(Monitor m) { monitor_ = std::move(m); }
+  void setProgress(Progress* p) { progress_ = p; }
+
+  // --- run --- (x is resized; x0 = 0). InputError for a missing/non-square operator, a size
+  // mismatch, bad params, or a non-positive diagonal with Jacobi.
+  void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+
+  // --- query ---
+  SolverStatus status() const { return status_; }
+  bool converged() const { return status_ == SolverStatus::Converged; }
+  int64_t iterations() const { return iterations_; }
+  double relativeResidual() const { return relres_; }
+  double trueResidual() const { return trueRes_; }
+  const std::vector<double>& residualHistory() const { return history_; }
+  const LanczosTridiagonal& lanczos() const { return lanczos_; }
+  double seconds() const { return seconds_; }
+
+private:
+  void runMinres(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd& minv);
+  void runCg(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd& minv);
+  bool step(int64_t k, double relres); // records history, calls monitor/progress; true = stop
+
+  SolverParams params_;
+  const SparseMatrix* K_ = nullptr;
+  Monitor monitor_;
+  Progress* progress_ = nullptr;
+
+  SolverStatus status_ = SolverStatus::NotRun;
+  int64_t iterations_ = 0;
+  double relres_ = 0.0;
+  double trueRes_ = 0.0;
+  double seconds_ = 0.0;
+  std::vector<double> history_;
+  LanczosTridiagonal lanczos_;
+};
+
+} // namespace tetflow
