@@ -288,6 +288,55 @@ private:
     return 0;
   }
 
+  // Calls fn(Ref) once for every real interface point that is still free on the edges, faces
+  // and tets of the interface tets around vertex v (`stamp` dedupes shared edges and faces).
+  template <class F>
+  void forFreePointsAround(int32_t v, int32_t stamp, std::vector<int32_t>& edgeStamp,
+                           std::vector<int32_t>& faceStamp, F&& fn) {
+    for (int64_t i = vtStart_[v]; i < vtStart_[v + 1]; ++i) {
+      const int32_t t = vtList_[i];
+      const int lv = localVertex(t, v);
+      for (int le = 0; le < 6; ++le) {
+        if (!edgeHasVertex(le, lv)) continue;
+        const int32_t e = tetEdge_[t][le];
+        if (edgeStamp[e] == stamp) continue;
+        edgeStamp[e] = stamp;
+        if (cutReal_[e] && cutAlias_[e].none()) fn(Ref{kCut, e});
+      }
+      for (int lf = 0; lf < 4; ++lf) {
+        if (!faceHasVertex(lf, lv)) continue;
+        const int32_t f = tetFace_[t][lf];
+        if (faceStamp[f] == stamp) continue;
+        faceStamp[f] = stamp;
+        if (triReal_[f] && triAlias_[f].none()) fn(Ref{kTriple, f});
+      }
+      if (quadReal_[t] && quadAlias_[t].none()) fn(Ref{kQuad, t});
+    }
+  }
+  // The vertices of a cut's, triple's or quadruple's own simplex; returns their count.
+  int simplexOf(Ref r, int32_t vs[4]) const {
+    switch (r.kind) {
+      case kCut: vs[0] = edgeV_[r.index][0]; vs[1] = edgeV_[r.index][1]; return 2;
+      case kTriple: for (int k = 0; k < 3; ++k) vs[k] = faceV_[r.index][k]; return 3;
+      case kQuad: for (int k = 0; k < 4; ++k) vs[k] = tv(r.index)[k]; return 4;
+      default: return 0;
+    }
+  }
+  // Does interface point r violate the k-th vertex of its simplex?
+  bool violatesVertex(Ref r, int k) const {
+    switch (r.kind) {
+      case kCut: return cutViolates(r.index, k);
+      case kTriple: return triViolates(r.index, 1u << k);
+      case kQuad: return quadViolates(r.index, 1u << k);
+      default: return false;
+    }
+  }
+  void recompute(Ref r) {
+    if (r.kind == kCut) computeCut(r.index);
+    else if (r.kind == kTriple) computeTriple(r.index);
+    else if (r.kind == kQuad) computeQuad(r.index);
+  }
+
   // ---- interface point computation (linear interpolation of sampled values) ----
   void computeCut(int32_t e) {
     const auto& v = edgeV_[e];
@@ -663,26 +712,12 @@ void Cleaver::phaseVertices() {
     if (++done % 4096 == 0) progress_.checkCancel();
     viol.clear();
     const int32_t stampA = 2 * v, stampB = 2 * v + 1;
-    for (int64_t i = vtStart_[v]; i < vtStart_[v + 1]; ++i) {
-      const int32_t t = vtList_[i];
-      const int lv = localVertex(t, v);
-      for (int le = 0; le < 6; ++le) {
-        if (!edgeHasVertex(le, lv)) continue;
-        const int32_t e = tetEdge_[t][le];
-        if (edgeStamp[e] == stampA) continue;
-        edgeStamp[e] = stampA;
-        if (cutReal_[e] && cutAlias_[e].none() && cutViolates(e, edgeV_[e][0] == v ? 0 : 1))
-          viol.push_back({kCut, e});
-      }
-      for (int lf = 0; lf < 4; ++lf) {
-        if (!faceHasVertex(lf, lv)) continue;
-        const int32_t f = tetFace_[t][lf];
-        if (faceStamp[f] == stampA) continue;
-        faceStamp[f] = stampA;
-        if (triReal_[f] && triAlias_[f].none() && triViolates(f, faceMask(f, v))) viol.push_back({kTriple, f});
-      }
-      if (quadReal_[t] && quadAlias_[t].none() && quadViolates(t, 1u << lv)) viol.push_back({kQuad, t});
-    }
+    forFreePointsAround(v, stampA, edgeStamp, faceStamp, [&](Ref r) {
+      int32_t vs[4];
+      const int n = simplexOf(r, vs);
+      for (int k = 0; k < n; ++k)
+        if (vs[k] == v && violatesVertex(r, k)) viol.push_back(r);
+    });
     visited[v] = 1;
     if (viol.empty()) continue;
     Vec3 c{0, 0, 0};
@@ -696,53 +731,19 @@ void Cleaver::phaseVertices() {
     if (!(c == m_.points[v])) ++stats_.warpedVertices;
     mats_.sample(c, s);
     resampled_[v] = s;
-    // Project the remaining interface points around v onto the surfaces at the new position.
-    for (int64_t i = vtStart_[v]; i < vtStart_[v + 1]; ++i) {
-      const int32_t t = vtList_[i];
-      const int lv = localVertex(t, v);
-      for (int le = 0; le < 6; ++le) {
-        if (!edgeHasVertex(le, lv)) continue;
-        const int32_t e = tetEdge_[t][le];
-        if (edgeStamp[e] == stampB) continue;
-        edgeStamp[e] = stampB;
-        if (!cutReal_[e] || !cutAlias_[e].none()) continue;
-        computeCut(e);
-        for (int end = 0; end < 2; ++end) {
-          const int32_t u = edgeV_[e][end];
-          if ((u == v || visited[u]) && cutViolates(e, end)) {
-            cutAlias_[e] = Ref{kVertex, u};
-            ++stats_.snaps;
-            break;
-          }
+    // Project the remaining interface points around v onto the surfaces at the new position;
+    // one that now violates v, or an already visited vertex, snaps to it.
+    forFreePointsAround(v, stampB, edgeStamp, faceStamp, [&](Ref r) {
+      recompute(r);
+      int32_t vs[4];
+      const int n = simplexOf(r, vs);
+      for (int k = 0; k < n; ++k)
+        if ((vs[k] == v || visited[vs[k]]) && violatesVertex(r, k)) {
+          setAlias(r, Ref{kVertex, vs[k]});
+          ++stats_.snaps;
+          break;
         }
-      }
-      for (int lf = 0; lf < 4; ++lf) {
-        if (!faceHasVertex(lf, lv)) continue;
-        const int32_t f = tetFace_[t][lf];
-        if (faceStamp[f] == stampB) continue;
-        faceStamp[f] = stampB;
-        if (!triReal_[f] || !triAlias_[f].none()) continue;
-        computeTriple(f);
-        for (int k = 0; k < 3; ++k) {
-          const int32_t u = faceV_[f][k];
-          if ((u == v || visited[u]) && triViolates(f, 1u << k)) {
-            triAlias_[f] = Ref{kVertex, u};
-            ++stats_.snaps;
-            break;
-          }
-        }
-      }
-      if (quadReal_[t] && quadAlias_[t].none()) {
-        computeQuad(t);
-        const auto& q = tv(t);
-        for (int k = 0; k < 4; ++k)
-          if ((q[k] == v || visited[q[k]]) && quadViolates(t, 1u << k)) {
-            quadAlias_[t] = Ref{kVertex, q[k]};
-            ++stats_.snaps;
-            break;
-          }
-      }
-    }
+    });
   }
 }
 
@@ -753,7 +754,6 @@ void Cleaver::phaseEdges() {
     if (!cutReal_[e]) continue; // triples and quadruples only lie on faces/tets with real cuts
     for (int64_t i = etStart_[e]; i < etStart_[e + 1]; ++i) {
       const int32_t t = etList_[i];
-      const auto& q = tv(t);
       const int la = localVertex(t, edgeV_[e][0]), lb = localVertex(t, edgeV_[e][1]);
       for (int lf = 0; lf < 4; ++lf) {
         if (lf == la || lf == lb) continue; // faces containing both ends
@@ -764,7 +764,6 @@ void Cleaver::phaseEdges() {
           ++stats_.snaps;
         }
       }
-      (void)q;
       if (quadReal_[t] && quadAlias_[t].none() && quadViolates(t, (1u << la) | (1u << lb))) {
         quadAlias_[t] = Ref{kCut, e};
         ++stats_.snaps;
@@ -938,7 +937,6 @@ void Cleaver::checkFace(int32_t f) {
 void Cleaver::checkTet(int32_t t) {
   if (!quadReal_[t] && quadAlias_[t].none()) placeVirtualQuad(t);
   const Ref Q = resolve({kQuad, t});
-  const auto& q = tv(t);
   if (Q.kind == kVertex) {
     const int lv = localVertex(t, Q.index);
     // Every face at w must have its triple at w; triples can move down to w, never across.
@@ -983,7 +981,6 @@ void Cleaver::checkTet(int32_t t) {
       }
     }
   }
-  (void)q;
 }
 
 void Cleaver::closure() {
