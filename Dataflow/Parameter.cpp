@@ -37,6 +37,25 @@ const char* paramTypeName(ParamType t) {
   return "?";
 }
 
+ParamSpec makeParam(std::string name, ParamType type, ParamValue def, std::string unit,
+                    std::string description) {
+  ParamSpec s;
+  s.name = std::move(name);
+  s.type = type;
+  s.defaultValue = std::move(def);
+  s.unit = std::move(unit);
+  s.description = std::move(description);
+  return s;
+}
+
+ParamSpec doubleParam(std::string name, double def, std::optional<double> min,
+                      std::optional<double> max, std::string unit, std::string description) {
+  ParamSpec s = makeParam(std::move(name), ParamType::Double, def, std::move(unit), std::move(description));
+  s.min = min;
+  s.max = max;
+  return s;
+}
+
 std::string formatDouble(double v) {
   char buf[64];
   auto r = std::to_chars(buf, buf + sizeof buf, v);

@@ -44,6 +44,14 @@ bool checkParam(const ParamSpec& spec, const ParamValue& value, std::string& err
 // "0.2 (double, >= 0, mm)" style description of what is allowed, for messages and `describe`.
 std::string describeAllowed(const ParamSpec& spec);
 
+// A parameter declaration in one call (module registration); ranges and choices are set on the
+// result where needed.
+ParamSpec makeParam(std::string name, ParamType type, ParamValue def, std::string unit,
+                    std::string description);
+// A double parameter with optional inclusive bounds.
+ParamSpec doubleParam(std::string name, double def, std::optional<double> min,
+                      std::optional<double> max, std::string unit, std::string description);
+
 std::string formatDouble(double v); // shortest round-trip text
 std::vector<std::string> splitList(const std::string& text);
 

@@ -45,15 +45,6 @@ public:
   }
 };
 
-ParamSpec makeParam(std::string name, ParamType type, ParamValue def, std::string unit, std::string desc) {
-  ParamSpec s;
-  s.name = std::move(name);
-  s.type = type;
-  s.defaultValue = std::move(def);
-  s.unit = std::move(unit);
-  s.description = std::move(desc);
-  return s;
-}
 } // namespace
 
 void registerAssembleFEMPoisson(ModuleRegistry& r) {

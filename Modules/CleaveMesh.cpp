@@ -67,17 +67,8 @@ void registerCleaveMesh(ModuleRegistry& r) {
   m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "labels or indicator functions"},
               {"background", {PortType::TetMesh}, "background mesh (GenerateBackgroundMesh)"}};
   m.outputs = {{"mesh", {PortType::TetMesh}, "the cleaved mesh"}};
-  auto dbl = [](std::string n, double def, double min, double max, std::string unit, std::string desc) {
-    ParamSpec s;
-    s.name = std::move(n);
-    s.type = ParamType::Double;
-    s.defaultValue = def;
-    s.min = min;
-    s.max = max;
-    s.unit = std::move(unit);
-    s.description = std::move(desc);
-    return s;
-  };
+  const auto dbl = doubleParam;
+
   ParamSpec strip;
   strip.name = "strip_exterior";
   strip.type = ParamType::String;

@@ -41,15 +41,9 @@ void registerCreatePhantom(ModuleRegistry& r) {
       "core, or a sphere with a tiny isolated 7-voxel blob. Background label 0.";
   m.outputs = {{"volume", {PortType::LabelVolume}, "the phantom's labels"}};
   auto dbl = [](std::string n, double def, double min, std::string unit, std::string desc) {
-    ParamSpec s;
-    s.name = std::move(n);
-    s.type = ParamType::Double;
-    s.defaultValue = def;
-    s.min = min;
-    s.unit = std::move(unit);
-    s.description = std::move(desc);
-    return s;
+    return doubleParam(std::move(n), def, min, std::nullopt, std::move(unit), std::move(desc));
   };
+
   ParamSpec kind;
   kind.name = "kind";
   kind.type = ParamType::Enum;
