@@ -11,6 +11,7 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/TetQuality.h"
+#include "VertexStars.h"
 
 namespace tetflow {
 
@@ -19,24 +20,16 @@ namespace {
 // Index of the (a,b) entry, a <= b, of a symmetric 4x4 local matrix stored as 10 numbers.
 constexpr int kSym[4][4] = {{0, 1, 2, 3}, {1, 4, 5, 6}, {2, 5, 7, 8}, {3, 6, 8, 9}};
 
-bool contains(const TetMesh::Tet& t, int32_t v) {
-  return t[0] == v || t[1] == v || t[2] == v || t[3] == v;
-}
-
 } // namespace
 
-VertexTets buildVertexTets(const TetMesh& mesh) {
-  VertexTets a;
-  const size_t np = mesh.numPoints();
-  a.offsets.assign(np + 1, 0);
-  for (const auto& t : mesh.tets)
-    for (int32_t v : t) ++a.offsets[size_t(v) + 1];
-  for (size_t v = 0; v < np; ++v) a.offsets[v + 1] += a.offsets[v];
-  a.tets.resize(size_t(a.offsets[np]));
-  std::vector<int64_t> fill(a.offsets.begin(), a.offsets.end() - 1);
-  for (size_t t = 0; t < mesh.numTets(); ++t)
-    for (int32_t v : mesh.tets[t]) a.tets[size_t(fill[size_t(v)]++)] = static_cast<int32_t>(t);
-  return a;
+std::vector<int32_t> vertexDegrees(const TetMesh& mesh) {
+  std::vector<int32_t> degree(mesh.numPoints(), 0);
+  const int64_t nt = static_cast<int64_t>(mesh.numTets());
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nt; ++t)
+    for (int32_t v : mesh.tets[size_t(t)])
+      std::atomic_ref<int32_t>(degree[size_t(v)]).fetch_add(1, std::memory_order_relaxed);
+  return degree;
 }
 
 void checkTetVolumes(const TetMesh& mesh) {
@@ -64,32 +57,38 @@ void checkTetVolumes(const TetMesh& mesh) {
   throw InputError(m.str());
 }
 
-std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh, const VertexTets& adj) {
+std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh) {
+  mesh.validateStructure("mesh");
   std::vector<uint8_t> flags(mesh.numPoints(), 0);
-  const int64_t nt = static_cast<int64_t>(mesh.numTets());
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < nt; ++t) {
-    const auto& q = mesh.tets[size_t(t)];
-    for (int k = 0; k < 4; ++k) {
-      int32_t f[3];
-      int n = 0;
-      for (int i = 0; i < 4; ++i)
-        if (i != k) f[n++] = q[i];
-      // Scan the tets around the face vertex with the fewest incident tets.
-      int32_t a = f[0];
-      for (int i = 1; i < 3; ++i)
-        if (adj.count(size_t(f[i])) < adj.count(size_t(a))) a = f[i];
-      bool shared = false;
-      for (int64_t s = adj.offsets[size_t(a)]; s < adj.offsets[size_t(a) + 1] && !shared; ++s) {
-        const int32_t other = adj.tets[size_t(s)];
-        if (other == t) continue;
-        const auto& o = mesh.tets[size_t(other)];
-        shared = contains(o, f[0]) && contains(o, f[1]) && contains(o, f[2]);
+  const std::vector<int32_t> degree = vertexDegrees(mesh);
+  // The faces of the star of v are (v, a, b) for the other two vertices a < b of each face of a
+  // star tet that contains v; v is on the boundary when one of them occurs only once.
+  std::vector<std::vector<uint64_t>> keys(static_cast<size_t>(omp_get_max_threads()));
+  NullProgress quiet;
+  forEachVertexStar(mesh, degree, defaultStarBlockCorners(4 * int64_t(mesh.numTets())), quiet,
+                    [&](int thread, int32_t v, const int32_t* tets, size_t n) {
+    std::vector<uint64_t>& k = keys[size_t(thread)];
+    k.clear();
+    for (size_t s = 0; s < n; ++s) {
+      int32_t o[3];
+      int m = 0;
+      for (int32_t w : mesh.tets[size_t(tets[s])])
+        if (w != v && m < 3) o[m++] = w;
+      if (m < 3) continue; // a tet naming v twice has no proper face at v
+      for (int i = 0; i < 3; ++i) {
+        uint32_t a = uint32_t(o[i]), b = uint32_t(o[(i + 1) % 3]);
+        if (a > b) std::swap(a, b);
+        k.push_back(uint64_t(a) << 32 | b);
       }
-      if (!shared)
-        for (int32_t v : f) std::atomic_ref<uint8_t>(flags[size_t(v)]).store(1, std::memory_order_relaxed);
     }
-  }
+    std::sort(k.begin(), k.end());
+    for (size_t i = 0; i < k.size() && !flags[size_t(v)];) {
+      size_t j = i + 1;
+      while (j < k.size() && k[j] == k[i]) ++j;
+      if (j - i == 1) flags[size_t(v)] = 1;
+      i = j;
+    }
+  });
   return flags;
 }
 
@@ -142,113 +141,143 @@ TetGradients tetGradients(const TetMesh& mesh, size_t t) {
   return g;
 }
 
-SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma, Progress& progress) {
-  mesh.validateStructure("mesh");
-  const VertexTets adj = buildVertexTets(mesh);
-  return assembleStiffness(mesh, sigma, adj, progress);
+namespace {
+
+// Conductivity of each tet, found from its label without a per-tet array: a direct table over
+// the label range when it is small, else a binary search in the sorted labels.
+class TetConductivity {
+public:
+  TetConductivity(const TetMesh& mesh, const ConductivityTable& sigma) : mesh_(mesh) {
+    std::vector<int32_t> labels(mesh.materials.begin(), mesh.materials.end());
+    std::sort(labels.begin(), labels.end());
+    labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+    labels_ = labels;
+    for (int32_t l : labels) {
+      const SymTensor6 s = sigma.tensor(l);
+      tensors_.push_back(s);
+      isotropic_.push_back(s[3] == 0 && s[4] == 0 && s[5] == 0 && s[0] == s[1] && s[1] == s[2]);
+    }
+    if (!labels.empty() && int64_t(labels.back()) - labels.front() < 65536) {
+      base_ = labels.front();
+      table_.assign(size_t(labels.back() - labels.front() + 1), 0);
+      for (size_t i = 0; i < labels.size(); ++i) table_[size_t(labels[i] - base_)] = uint16_t(i);
+    }
+  }
+  size_t index(size_t t) const {
+    const int32_t l = mesh_.materials[t];
+    if (!table_.empty()) return table_[size_t(l - base_)];
+    return size_t(std::lower_bound(labels_.begin(), labels_.end(), l) - labels_.begin());
+  }
+  const SymTensor6& tensor(size_t i) const { return tensors_[i]; }
+  bool isotropic(size_t i) const { return isotropic_[i]; }
+
+private:
+  const TetMesh& mesh_;
+  std::vector<int32_t> labels_;
+  std::vector<SymTensor6> tensors_;
+  std::vector<bool> isotropic_;
+  int32_t base_ = 0;
+  std::vector<uint16_t> table_;
+};
+
+// g^T S h for the symmetric tensor S = (xx, yy, zz, xy, yz, xz), written so that swapping g and h
+// gives the same bits (every product pair is symmetric), which keeps K exactly symmetric.
+inline double bilinear(const SymTensor6& S, const Vec3& g, const Vec3& h) {
+  return S[0] * (g[0] * h[0]) + S[1] * (g[1] * h[1]) + S[2] * (g[2] * h[2]) +
+         S[3] * (g[0] * h[1] + g[1] * h[0]) + S[4] * (g[1] * h[2] + g[2] * h[1]) +
+         S[5] * (g[0] * h[2] + g[2] * h[0]);
 }
 
-SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma,
-                               const VertexTets& adj, Progress& progress) {
+} // namespace
+
+SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma, Progress& progress) {
+  return assembleStiffness(mesh, sigma, progress, 0);
+}
+
+SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma, Progress& progress,
+                               int64_t blockCorners) {
   mesh.validateStructure("mesh");
   sigma.validate();
   checkTetVolumes(mesh);
-  const int64_t nt = static_cast<int64_t>(mesh.numTets());
   const int64_t np = static_cast<int64_t>(mesh.numPoints());
   if (np >= int64_t(std::numeric_limits<int>::max()))
     throw InputError("mesh has too many vertices for 32-bit sparse indices");
-
-  // Tensors per label (map lookups once, not per tet).
-  std::vector<int32_t> labels(mesh.materials.begin(), mesh.materials.end());
-  std::sort(labels.begin(), labels.end());
-  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
-  std::vector<Mat3> tensors;
-  for (int32_t l : labels) tensors.push_back(tensorMatrix(sigma.tensor(l)));
-  std::vector<uint16_t> labelIndex;
-  const bool fewLabels = labels.size() < 65536;
-  if (fewLabels) {
-    labelIndex.resize(size_t(nt));
-#pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < nt; ++t)
-      labelIndex[size_t(t)] = static_cast<uint16_t>(
-          std::lower_bound(labels.begin(), labels.end(), mesh.materials[size_t(t)]) - labels.begin());
-  }
-
-  // Local matrix of tet t (10 unique entries). Computed where needed (once per tet corner in the
-  // fill below) rather than stored: the same code gives the same bits every time, so K stays
-  // exactly symmetric, and no 80 B/tet array is needed.
-  auto localMatrix = [&](int64_t t, double* out) {
-    const TetGradients g = tetGradients(mesh, size_t(t));
-    const size_t li = fewLabels ? labelIndex[size_t(t)]
-                                : size_t(std::lower_bound(labels.begin(), labels.end(),
-                                                          mesh.materials[size_t(t)]) - labels.begin());
-    const Mat3& S = tensors[li];
-    Vec3 sg[4];
-    for (int b = 0; b < 4; ++b) sg[b] = mul(S, g.grad[b]);
-    for (int a = 0; a < 4; ++a)
-      for (int b = a; b < 4; ++b) out[kSym[a][b]] = g.volume * dot(g.grad[a], sg[b]);
+  if (4 * int64_t(mesh.numTets()) >= int64_t(std::numeric_limits<int32_t>::max()))
+    throw InputError("mesh has too many tets for 32-bit vertex degrees");
+  const TetConductivity cond(mesh, sigma);
+  const std::vector<int32_t> degree = vertexDegrees(mesh);
+  if (blockCorners <= 0) blockCorners = defaultStarBlockCorners(4 * int64_t(mesh.numTets()));
+  const int threads = omp_get_max_threads();
+  // Per thread: mark[v] == j while column j is gathered (reset to -1 first).
+  std::vector<std::vector<int32_t>> mark(static_cast<size_t>(threads));
+  std::vector<std::vector<int32_t>> rows(static_cast<size_t>(threads));
+  // Gathers the distinct vertices of the star of j (j included) into rows[thread], unsorted.
+  auto gather = [&](int thread, int32_t j, const int32_t* tets, size_t n) -> std::vector<int32_t>& {
+    std::vector<int32_t>& mk = mark[size_t(thread)];
+    if (mk.empty()) mk.assign(size_t(np), -1);
+    std::vector<int32_t>& r = rows[size_t(thread)];
+    r.clear();
+    for (size_t s = 0; s < n; ++s)
+      for (int32_t v : mesh.tets[size_t(tets[s])])
+        if (mk[size_t(v)] != j) {
+          mk[size_t(v)] = j;
+          r.push_back(v);
+        }
+    return r;
   };
-  progress.report(0.1);
+  progress.report(0.05);
 
-  // 2. Sparsity pattern: column j holds the vertices of the tets around j (sorted, unique).
+  // 1. Pattern: column j holds the distinct vertices of the tets around j.
   SparseMatrix K(np, np);
-  std::vector<int64_t> colCount(size_t(np) + 1, 0);
-  auto neighbours = [&](int64_t j, std::vector<int32_t>& buf) {
-    buf.clear();
-    for (int64_t s = adj.offsets[size_t(j)]; s < adj.offsets[size_t(j) + 1]; ++s)
-      for (int32_t v : mesh.tets[size_t(adj.tets[size_t(s)])]) buf.push_back(v);
-    std::sort(buf.begin(), buf.end());
-    buf.erase(std::unique(buf.begin(), buf.end()), buf.end());
-  };
-#pragma omp parallel
-  {
-    std::vector<int32_t> buf;
-#pragma omp for schedule(dynamic, 4096)
-    for (int64_t j = 0; j < np; ++j) {
-      neighbours(j, buf);
-      colCount[size_t(j) + 1] = int64_t(buf.size());
-    }
-  }
-  progress.checkCancel();
-  for (int64_t j = 0; j < np; ++j) colCount[size_t(j) + 1] += colCount[size_t(j)];
-  const int64_t nnz = colCount[size_t(np)];
-  if (nnz >= int64_t(std::numeric_limits<int>::max()))
-    throw InputError("stiffness matrix has too many non-zeros for 32-bit sparse indices");
-  K.resizeNonZeros(nnz);
   int* outer = K.outerIndexPtr();
+  std::fill(outer, outer + np + 1, 0);
+  forEachVertexStar(mesh, degree, blockCorners, progress, [&](int thread, int32_t j, const int32_t* tets, size_t n) {
+    outer[j + 1] = static_cast<int>(gather(thread, j, tets, n).size());
+  });
+  int64_t nnz = 0;
+  for (int64_t j = 0; j < np; ++j) {
+    nnz += outer[j + 1];
+    if (nnz >= int64_t(std::numeric_limits<int>::max()))
+      throw InputError("stiffness matrix has too many non-zeros for 32-bit sparse indices");
+    outer[j + 1] = static_cast<int>(nnz);
+  }
+  K.resizeNonZeros(nnz);
   int* inner = K.innerIndexPtr();
   double* values = K.valuePtr();
-  for (int64_t j = 0; j <= np; ++j) outer[j] = static_cast<int>(colCount[size_t(j)]);
-  progress.report(0.5);
+  for (auto& mk : mark) std::fill(mk.begin(), mk.end(), -1);
+  progress.report(0.4);
 
-  // 3. Fill column by column: each column is owned by one thread; contributions are added in
-  //    ascending tet order, so the sums do not depend on the thread count.
-#pragma omp parallel
-  {
-    std::vector<int32_t> buf;
-#pragma omp for schedule(dynamic, 4096)
-    for (int64_t j = 0; j < np; ++j) {
-      neighbours(j, buf);
-      const int64_t start = colCount[size_t(j)];
-      for (size_t k = 0; k < buf.size(); ++k) {
-        inner[start + int64_t(k)] = buf[k];
-        values[start + int64_t(k)] = 0.0;
-      }
-      for (int64_t s = adj.offsets[size_t(j)]; s < adj.offsets[size_t(j) + 1]; ++s) {
-        const int32_t t = adj.tets[size_t(s)];
-        const auto& q = mesh.tets[size_t(t)];
-        int lj = 0;
-        while (q[lj] != j) ++lj;
-        double loc[10];
-        localMatrix(t, loc);
-        for (int a = 0; a < 4; ++a) {
-          const auto pos = std::lower_bound(buf.begin(), buf.end(), q[a]) - buf.begin();
-          values[start + pos] += loc[kSym[a][lj]];
-        }
+  // 2. Values, column by column: column j is written by one thread, which adds the tets around j
+  //    in ascending tet order; entry (a, j) of tet t is vol * g_a^T S g_j computed symmetrically,
+  //    so K(a, j) and K(j, a) are the same sums in the same order.
+  forEachVertexStar(mesh, degree, blockCorners, progress, [&](int thread, int32_t j, const int32_t* tets, size_t n) {
+    std::vector<int32_t>& r = gather(thread, j, tets, n);
+    std::sort(r.begin(), r.end());
+    const int start = outer[j];
+    int* rowIdx = inner + start;
+    double* col = values + start;
+    std::copy(r.begin(), r.end(), rowIdx);
+    std::fill(col, col + r.size(), 0.0);
+    int* const rowEnd = rowIdx + r.size();
+    for (size_t s = 0; s < n; ++s) {
+      const size_t t = size_t(tets[s]);
+      const auto& q = mesh.tets[t];
+      const TetGradients g = tetGradients(mesh, t);
+      int lj = 0;
+      while (q[lj] != j) ++lj;
+      const size_t ci = cond.index(t);
+      const Vec3& gj = g.grad[size_t(lj)];
+      if (cond.isotropic(ci)) {
+        const double w = cond.tensor(ci)[0] * g.volume;
+        for (int a = 0; a < 4; ++a)
+          col[std::lower_bound(rowIdx, rowEnd, q[a]) - rowIdx] += w * dot(g.grad[size_t(a)], gj);
+      } else {
+        const SymTensor6& S = cond.tensor(ci);
+        for (int a = 0; a < 4; ++a)
+          col[std::lower_bound(rowIdx, rowEnd, q[a]) - rowIdx] += g.volume * bilinear(S, g.grad[size_t(a)], gj);
       }
     }
-  }
-  progress.checkCancel();
+  });
   progress.report(1.0);
   return K;
 }

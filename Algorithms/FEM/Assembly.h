@@ -9,14 +9,16 @@
 //   grad l0 = -(grad l1 + grad l2 + grad l3),   e_k = p_k - p0, D = e1 . (e2 x e3) = 6 vol,
 // and the local stiffness matrix is K_ab = vol * grad(l_a)^T sigma grad(l_b).
 //
-// Parallelism and determinism: assembly is parallel over both cores with OpenMP and needs no
-// atomics. The sparsity pattern is built per column from the vertex -> tets adjacency; then every
-// column j is filled by one thread, adding the contributions of the tets around vertex j in
-// ascending tet order. A tet's local matrix (10 unique entries) is recomputed at each of its 4
-// corners instead of being stored: as fast as storing it (measured, Testing/Benchmarks/
-// results/fem.txt) and no 80 B/tet temporary. The result is bitwise identical for any thread
-// count, and exactly symmetric (K_ij and K_ji are sums of the same numbers in the same order).
-// Temporary memory: the adjacency (16 B per tet + 8 B per vertex) and 8 B per vertex of counts.
+// Parallelism, determinism, memory: assembly is parallel over both cores with OpenMP and needs
+// no atomics on the matrix. Column j (= row j) is built by one thread from the star of vertex j
+// (VertexStars.h: the tets around j, produced block by block, so the full vertex -> tets map is
+// never held): first the pattern (the distinct vertices of the star), then the values, adding the
+// tets around j in ascending tet order. Entry (a, j) of a tet is vol * g_a^T sigma g_j evaluated
+// so that swapping a and j gives the same bits; hence K is exactly symmetric and bitwise the
+// same for any thread count and block size. The gradients of a tet are recomputed at each of its
+// 4 corners instead of being stored (no 80 B/tet array). Temporary memory beyond the matrix: 4 B
+// per vertex (degrees) + 4 B per vertex per thread (marks) + the current block's star lists
+// (4 B per corner, a quarter of all corners by default = 4 B per tet).
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
@@ -34,23 +36,14 @@ namespace tetflow {
 // Column-major, int indices, compressed; TetFlow's stiffness matrices store both triangles.
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
-// Tets around each vertex (CSR): tets of vertex v are tets[offsets[v] .. offsets[v+1]),
-// in ascending order. offsets has numPoints()+1 entries.
-struct VertexTets {
-  std::vector<int64_t> offsets;
-  std::vector<int32_t> tets;
-  size_t count(size_t v) const { return size_t(offsets[v + 1] - offsets[v]); }
-};
-VertexTets buildVertexTets(const TetMesh& mesh);
-
 // Throws InputError naming the first tet (lowest index) whose signed volume is not positive
 // (inverted) or is zero within |V| <= kZeroVolumeRelTol * L_max^3 (degenerate). P1 needs every
 // tet positively oriented and non-degenerate (DESIGN §2, TetMesh.h).
 void checkTetVolumes(const TetMesh& mesh);
 
 // Per vertex: 1 when it lies on a boundary face (a triangular face used by exactly one tet),
-// else 0. Vertices used by no tet are 0. Parallel over tets.
-std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh, const VertexTets& adjacency);
+// else 0. Vertices used by no tet are 0. Parallel over vertices, from their stars (VertexStars.h).
+std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh);
 
 // Connected components of the tets (two tets are connected when they share a vertex):
 // component id per vertex, -1 for vertices used by no tet; ids are 0.. in order of the lowest
@@ -68,10 +61,11 @@ TetGradients tetGradients(const TetMesh& mesh, size_t t);
 // chosen per tet by its material label from `sigma`. Vertices used by no tet have an empty
 // row/column. Checks sizes (validateStructure), volumes (checkTetVolumes) and the conductivity
 // table; throws InputError naming the culprit. Stages are not opened here; calls
-// progress.checkCancel() between the passes (pattern, values; each ~0.2 s per M tets).
-SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma,
-                               const VertexTets& adjacency, Progress& progress);
+// progress.checkCancel() after every block of vertex stars. `blockCorners` (> 0) overrides the
+// star block budget (tests use it to show the result does not depend on it).
 SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma, Progress& progress);
+SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sigma, Progress& progress,
+                               int64_t blockCorners);
 
 // Consistent load vector b_i = integral f phi_i for a constant source density f (mA/mm^3):
 // b_i = sum over tets T containing i of f vol_T / 4.

@@ -87,8 +87,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   // --- assemble -------------------------------------------------------------------------
   auto t0 = std::chrono::steady_clock::now();
   progress.beginStage("assemble");
-  const VertexTets adj = buildVertexTets(mesh);
-  const SparseMatrix K = assembleStiffness(mesh, params.conductivities, adj, progress);
+  const SparseMatrix K = assembleStiffness(mesh, params.conductivities, progress);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(Eigen::Index(np));
   if (params.boundary == BoundaryCondition::Boundary) f = assembleLoad(mesh, params.source);
   if (params.boundary == BoundaryCondition::Dipole)
@@ -100,7 +99,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   // --- boundary conditions --------------------------------------------------------------
   t0 = std::chrono::steady_clock::now();
   progress.beginStage("boundary conditions");
-  const std::vector<uint8_t> onBoundary = boundaryVertexFlags(mesh, adj);
+  const std::vector<uint8_t> onBoundary = boundaryVertexFlags(mesh);
   for (uint8_t b : onBoundary) res.boundaryVertices += b;
   DirichletSet dir(np);
   std::vector<uint8_t> used(np, 0);
@@ -358,7 +357,12 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
       res.electrodes.push_back({g.name, g.potential, I});
     }
   }
-  res.matrix = std::make_shared<const SparseMatrix>(std::move(sys.K));
+  {
+    // Swapped, not moved: Eigen 3.4's SparseMatrix has no move constructor (std::move copies).
+    auto matrix = std::make_shared<SparseMatrix>();
+    matrix->swap(sys.K);
+    res.matrix = std::move(matrix);
+  }
   progress.endStage();
   res.fieldsSeconds = secondsSince(t0);
   return res;

@@ -9,7 +9,7 @@
 // V/mm, current densities mA/mm^2 (= kA/m^2; S/m x V/mm).
 //
 // Stages (named, timed, reported through Progress, DESIGN §7):
-//   assemble             vertex->tet adjacency, stiffness matrix (Assembly.h), load vector
+//   assemble             stiffness matrix (Assembly.h), load vector
 //   boundary conditions  boundary vertices, Dirichlet set, reference vertices, elimination
 //   solve                MINRES or CG (IterativeSolver.h)
 //   condition            kappa(K) and kappa(D^-1/2 K D^-1/2) (Conditioning.h): with

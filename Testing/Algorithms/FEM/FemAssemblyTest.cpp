@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 
 #include <cmath>
+#include <map>
+#include <set>
 #include <random>
 
 #include "Algorithms/FEM/Assembly.h"
@@ -104,6 +106,70 @@ TEST(FemAssembly, ResultDoesNotDependOnTheThreadCount) {
   }
 }
 
+TEST(FemAssembly, ResultDoesNotDependOnTheStarBlockSizeAndIsExactlySymmetric) {
+  // The vertex stars are produced in blocks of at most `blockCorners` tet corners (VertexStars.h):
+  // one corner per block, 37, and everything at once give the same bits. The anisotropic tensor
+  // exercises the symmetric bilinear form.
+  const TetMesh m = perturbedBox({6, 5, 4}, 9, [](int i, int j, int) { return (i + 2 * j) % 3; });
+  ConductivityTable s;
+  s.set(0, 0.7);
+  s.set(1, SymTensor6{1.5, 0.5, 2.5, -0.3, 0.2, 0.4});
+  s.set(2, SymTensor6{1, 1, 1, 0, 0, 0.9});
+  NullProgress np;
+  const SparseMatrix ref = assembleStiffness(m, s, np, int64_t(1) << 40);
+  for (int64_t block : {1, 37, 1000}) {
+    const SparseMatrix K = assembleStiffness(m, s, np, block);
+    ASSERT_EQ(K.nonZeros(), ref.nonZeros()) << block;
+    for (int64_t i = 0; i < K.nonZeros(); ++i) {
+      ASSERT_EQ(K.innerIndexPtr()[i], ref.innerIndexPtr()[i]) << block;
+      ASSERT_EQ(K.valuePtr()[i], ref.valuePtr()[i]) << block;
+    }
+  }
+  const SparseMatrix T = ref.transpose();
+  ASSERT_EQ(T.nonZeros(), ref.nonZeros());
+  for (int64_t i = 0; i < T.nonZeros(); ++i) {
+    ASSERT_EQ(T.innerIndexPtr()[i], ref.innerIndexPtr()[i]);
+    ASSERT_EQ(T.valuePtr()[i], ref.valuePtr()[i]); // bitwise
+  }
+  // Columns are sorted and hold exactly the vertices sharing a tet with the column's vertex.
+  for (int j = 0; j < ref.cols(); ++j) {
+    std::set<int> expected;
+    for (const auto& t : m.tets)
+      if (t[0] == j || t[1] == j || t[2] == j || t[3] == j) expected.insert(t.begin(), t.end());
+    std::vector<int> got(ref.innerIndexPtr() + ref.outerIndexPtr()[j], ref.innerIndexPtr() + ref.outerIndexPtr()[j + 1]);
+    ASSERT_EQ(got, std::vector<int>(expected.begin(), expected.end())) << "column " << j;
+  }
+}
+
+TEST(FemAssembly, BoundaryVerticesMatchAFaceCountOnRandomSubsets) {
+  // Random subsets of a box's tets (holes, pinched vertices, separate pieces): a vertex is on the
+  // boundary exactly when it lies on a face used by one tet.
+  std::mt19937 rng(21);
+  for (int trial = 0; trial < 20; ++trial) {
+    TetMesh m = perturbedBox({4, 4, 3}, unsigned(trial));
+    std::vector<TetMesh::Tet> kept;
+    for (const auto& t : m.tets)
+      if (rng() % 3 != 0) kept.push_back(t);
+    m.tets = kept;
+    m.materials.assign(kept.size(), 1);
+    std::map<std::array<int32_t, 3>, int> faces;
+    for (const auto& t : m.tets)
+      for (int k = 0; k < 4; ++k) {
+        std::array<int32_t, 3> f;
+        int n = 0;
+        for (int i = 0; i < 4; ++i)
+          if (i != k) f[size_t(n++)] = t[size_t(i)];
+        std::sort(f.begin(), f.end());
+        ++faces[f];
+      }
+    std::vector<uint8_t> expected(m.numPoints(), 0);
+    for (const auto& [f, c] : faces)
+      if (c == 1)
+        for (int32_t v : f) expected[size_t(v)] = 1;
+    EXPECT_EQ(boundaryVertexFlags(m), expected) << "trial " << trial;
+  }
+}
+
 TEST(FemAssembly, LoadVectorsAreConsistent) {
   const TetMesh m = perturbedBox({3, 2, 2}, 2);
   double vol = 0;
@@ -128,7 +194,7 @@ TEST(FemAssembly, LoadVectorsAreConsistent) {
 
 TEST(FemAssembly, BoundaryVerticesOfABox) {
   const TetMesh m = kuhnBox({4, 3, 2}, {0, 0, 0}, {4, 3, 2});
-  const auto flags = boundaryVertexFlags(m, buildVertexTets(m));
+  const auto flags = boundaryVertexFlags(m);
   int64_t count = 0;
   for (auto f : flags) count += f;
   EXPECT_EQ(count, 5 * 4 * 3 - 3 * 2 * 1); // all grid vertices minus the interior ones
