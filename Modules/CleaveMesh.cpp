@@ -42,7 +42,7 @@ public:
     }
     CleaveResult r = cleave(bg, *mats, p, ctx.progress());
     writeCleaveReport(r, ctx.report());
-    ctx.report().set("background", bg.kind.empty() ? "unstructured" : "regular_bcc");
+    ctx.report().set("background", bg.kind.empty() ? "unstructured" : "bcc_lattice");
     for (const auto& m : r.materials)
       if (m.lost()) {
         std::ostringstream msg;

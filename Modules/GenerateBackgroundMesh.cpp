@@ -1,10 +1,28 @@
 // GenerateBackgroundMesh: the background tet mesh that cleaving deforms (seed §4.4).
+#include <sstream>
+
 #include "Algorithms/BackgroundMesh/BccLattice.h"
+#include "Algorithms/BackgroundMesh/OctreeBcc.h"
 #include "StandardModules.h"
 
 namespace tetflow {
 
 namespace {
+// The lattice kind travels with the mesh as a point field so CleaveMesh can apply
+// alpha_short / alpha_long per edge.
+void attachLatticeKind(BackgroundMesh& bg) {
+  Field kind;
+  kind.values.reserve(bg.kind.size());
+  for (auto k : bg.kind) kind.values.push_back(double(static_cast<int>(k)));
+  bg.mesh.pointFields["lattice_kind"] = std::move(kind);
+}
+
+std::string triple(double a, double b, double c) {
+  std::ostringstream s;
+  s << a << " x " << b << " x " << c;
+  return s.str();
+}
+
 class GenerateBackgroundMesh : public Module {
 public:
   void execute(ExecutionContext& ctx) override {
@@ -12,21 +30,37 @@ public:
     const GridGeometry grid = in->type() == PortType::LabelVolume
                                   ? ctx.inputAs<LabelVolumeData>(0).value.grid
                                   : ctx.inputAs<MaterialsData>(0).value->grid();
-    BccParams p;
-    p.cell_size = ctx.getDouble("cell_size");
-    p.padding = ctx.getDouble("padding");
-    BackgroundMesh bg = generateRegularBcc(grid, p, ctx.progress());
-    // The lattice kind travels with the mesh so CleaveMesh can apply alpha_short / alpha_long.
-    Field kind;
-    kind.values.reserve(bg.kind.size());
-    for (auto k : bg.kind) kind.values.push_back(double(static_cast<int>(k)));
-    bg.mesh.pointFields["lattice_kind"] = std::move(kind);
+    const std::string kind = ctx.getString("kind");
+    const bool haveSizing = ctx.hasInput(1);
+    BackgroundMesh bg;
     Report& r = ctx.report();
-    r.set("kind", "regular_bcc");
-    r.set("cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
-                       std::to_string(bg.cells[2]));
-    r.set("cell_size_mm", std::to_string(bg.cellSize[0]) + " x " + std::to_string(bg.cellSize[1]) +
-                              " x " + std::to_string(bg.cellSize[2]));
+    r.set("kind", kind);
+    if (kind == "octree_bcc") {
+      if (!haveSizing)
+        throw InputError("kind octree_bcc needs a sizing field on input port 1 'sizing': connect "
+                         "ComputeSizingField's output, or use kind regular_bcc");
+      OctreeBccParams p;
+      p.min_cell_size = ctx.getDouble("min_cell_size");
+      p.max_cell_size = ctx.getDouble("max_cell_size");
+      p.padding = ctx.getDouble("padding");
+      OctreeBccResult o = generateOctreeBcc(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress());
+      bg = std::move(o.background);
+      r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
+                              std::to_string(bg.cells[2]));
+      reportOctreeBcc(o.stats, r);
+    } else {
+      if (haveSizing)
+        ctx.log("kind regular_bcc ignores the sizing field on port 1 (uniform cell_size); use kind "
+                "octree_bcc to grade the lattice by it");
+      BccParams p;
+      p.cell_size = ctx.getDouble("cell_size");
+      p.padding = ctx.getDouble("padding");
+      bg = generateRegularBcc(grid, p, ctx.progress());
+      r.set("cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
+                         std::to_string(bg.cells[2]));
+      r.set("cell_size_mm", triple(bg.cellSize[0], bg.cellSize[1], bg.cellSize[2]));
+    }
+    attachLatticeKind(bg);
     r.set("vertices", ReportValue(int64_t(bg.mesh.numPoints())));
     r.set("tets", ReportValue(int64_t(bg.mesh.numTets())));
     r.set("box_volume_mm3", ReportValue(bg.boxVolume));
@@ -39,16 +73,18 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   ModuleInfo m;
   m.name = "GenerateBackgroundMesh";
   m.category = "Meshing";
-  m.description = "Builds the background mesh for cleaving: a regular body-centred cubic lattice "
-                  "covering exactly the volume's box (plus padding), with tets bisected at the box "
-                  "faces so the mesh ends on the box.";
-  m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "gives the box to cover"}};
+  m.description = "Builds the background mesh for cleaving, covering exactly the volume's box (plus "
+                  "padding) with tets bisected at the box faces so the mesh ends on the box: a regular "
+                  "body-centred cubic lattice (regular_bcc), or a BCC lattice graded on a balanced "
+                  "octree by a sizing field (octree_bcc).";
+  m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "gives the box to cover"},
+              {"sizing", {PortType::ScalarVolume}, "element size field in mm (ComputeSizingField); needed by octree_bcc", true}};
   m.outputs = {{"mesh", {PortType::TetMesh}, "background tet mesh"}};
   ParamSpec kind;
   kind.name = "kind";
   kind.type = ParamType::Enum;
   kind.defaultValue = std::string("regular_bcc");
-  kind.choices = {"regular_bcc"};
+  kind.choices = {"regular_bcc", "octree_bcc"};
   kind.description = "lattice type";
   ParamSpec cs;
   cs.name = "cell_size";
@@ -56,7 +92,7 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   cs.defaultValue = 4.0;
   cs.min = 1e-6;
   cs.unit = "mm";
-  cs.description = "edge of a lattice cell (rounded per axis so cells tile the box exactly)";
+  cs.description = "regular_bcc: edge of a lattice cell (rounded per axis so cells tile the box exactly)";
   ParamSpec pad;
   pad.name = "padding";
   pad.type = ParamType::Double;
@@ -64,8 +100,12 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   pad.min = 0.0;
   pad.unit = "mm";
   pad.description = "margin added around the volume's box on every side";
-  m.params = {kind, cs, pad};
-  m.summaryKeys = {"cells", "tets"};
+  ParamSpec minc = doubleParam("min_cell_size", 0.0, 0.0, std::nullopt, "mm",
+                               "octree_bcc: smallest leaf edge; 0 = the sizing field's minimum");
+  ParamSpec maxc = doubleParam("max_cell_size", 0.0, 0.0, std::nullopt, "mm",
+                               "octree_bcc: root cell edge; 0 = the sizing field's maximum");
+  m.params = {kind, cs, pad, minc, maxc};
+  m.summaryKeys = {"cells", "levels", "tets"};
   m.factory = [] { return std::make_unique<GenerateBackgroundMesh>(); };
   r.add(std::move(m));
 }

@@ -38,7 +38,7 @@ TEST(CleaveMeshModule, PhantomPipelineGivesAValidMeshAndReports) {
   ASSERT_TRUE(sum.success) << p.exec.state("cl")->error;
   EXPECT_EQ(std::get<bool>(*p.report("q").find("valid")), true);
   EXPECT_EQ(std::get<std::string>(*p.report("cl").find("materials_lost")), "none");
-  EXPECT_EQ(std::get<std::string>(*p.report("cl").find("background")), "regular_bcc");
+  EXPECT_EQ(std::get<std::string>(*p.report("cl").find("background")), "bcc_lattice");
   EXPECT_GT(p.report("cl").number("tets"), 1000);
   // Stages are named and timed.
   std::vector<std::string> stages;

@@ -1,0 +1,350 @@
+#include "OctreeBcc.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "Algorithms/Core/Errors.h"
+
+namespace tetflow {
+
+namespace {
+
+constexpr int kMaxLevels = 12; // levels below the roots
+
+// Leaf key: level (4 bits) and the cell index at that level (20 bits per axis).
+uint64_t leafKey(int level, int64_t i, int64_t j, int64_t k) {
+  return uint64_t(level) << 60 | uint64_t(k) << 40 | uint64_t(j) << 20 | uint64_t(i);
+}
+int keyLevel(uint64_t key) { return int(key >> 60); }
+std::array<int64_t, 3> keyIndex(uint64_t key) {
+  const uint64_t m = (uint64_t(1) << 20) - 1;
+  return {int64_t(key & m), int64_t((key >> 20) & m), int64_t((key >> 40) & m)};
+}
+// Vertex key: half-finest-cell coordinates (21 bits per axis).
+uint64_t vertexKey(int64_t x, int64_t y, int64_t z) { return uint64_t(z) << 42 | uint64_t(y) << 21 | uint64_t(x); }
+
+// Smallest sizing value over the physical box spanned by `corners` (mm).
+class SizingOracle {
+public:
+  explicit SizingOracle(const ScalarVolume& v) : v_(v) {
+    const Mat3& d = v.grid.direction;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) inv_[r][c] = d[c][r] / v.grid.spacing[r];
+  }
+  float minOver(const std::array<Vec3, 8>& corners) const {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (const Vec3& p : corners) {
+      const Vec3 q = mul(inv_, p - v_.grid.origin);
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], q[a]);
+        hi[a] = std::max(hi[a], q[a]);
+      }
+    }
+    int64_t b[3], e[3];
+    for (int a = 0; a < 3; ++a) {
+      const int64_t n = v_.grid.dims[size_t(a)];
+      b[a] = std::clamp<int64_t>(int64_t(std::ceil(lo[a] - 1e-9)), 0, n - 1);
+      e[a] = std::clamp<int64_t>(int64_t(std::floor(hi[a] + 1e-9)), 0, n - 1);
+      if (e[a] < b[a]) { // no sample inside along this axis: the nearest one
+        const int64_t c = std::clamp<int64_t>(std::llround(0.5 * (lo[a] + hi[a])), 0, n - 1);
+        b[a] = e[a] = c;
+      }
+    }
+    float m = std::numeric_limits<float>::max();
+    for (int64_t k = b[2]; k <= e[2]; ++k)
+      for (int64_t j = b[1]; j <= e[1]; ++j)
+        for (int64_t i = b[0]; i <= e[0]; ++i) m = std::min(m, v_.at(i, j, k));
+    return m;
+  }
+
+private:
+  const ScalarVolume& v_;
+  Mat3 inv_;
+};
+
+} // namespace
+
+OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
+                                  const OctreeBccParams& p, Progress& progress) {
+  grid.validate("background mesh: volume");
+  sizing.grid.validate("background mesh: sizing field");
+  if (sizing.data.size() != size_t(sizing.grid.voxelCount()))
+    throw InputError("background mesh: sizing field has the wrong number of values");
+  if (!(p.padding >= 0.0) || !std::isfinite(p.padding)) throw InputError("padding must be >= 0 mm");
+  if (!(p.min_cell_size >= 0.0) || !std::isfinite(p.min_cell_size))
+    throw InputError("min_cell_size must be >= 0 mm (0 = the sizing field's minimum)");
+  if (!(p.max_cell_size >= 0.0) || !std::isfinite(p.max_cell_size))
+    throw InputError("max_cell_size must be >= 0 mm (0 = the sizing field's maximum)");
+  float smin = std::numeric_limits<float>::max(), smax = 0.0f;
+  for (size_t i = 0; i < sizing.data.size(); ++i) {
+    const float s = sizing.data[i];
+    if (!(s > 0.0f) || !std::isfinite(s)) {
+      const int64_t nx = sizing.grid.dims[0], ny = sizing.grid.dims[1];
+      std::ostringstream m;
+      m << "sizing field value " << s << " at sample (" << int64_t(i) % nx << ", " << (int64_t(i) / nx) % ny
+        << ", " << int64_t(i) / (nx * ny) << ") is not a positive size in mm; compute the field with "
+        << "ComputeSizingField or clamp it with min_size";
+      throw InputError(m.str());
+    }
+    smin = std::min(smin, s);
+    smax = std::max(smax, s);
+  }
+  const double minCell = p.min_cell_size > 0 ? p.min_cell_size : double(smin);
+  const double maxCell = p.max_cell_size > 0 ? p.max_cell_size : double(smax);
+  if (minCell > maxCell) {
+    std::ostringstream m;
+    m << "min_cell_size " << minCell << " mm is larger than max_cell_size " << maxCell << " mm";
+    throw InputError(m.str());
+  }
+
+  OctreeBccResult result;
+  BackgroundMesh& bg = result.background;
+  OctreeBccStats& st = result.stats;
+  progress.beginStage("octree");
+  // Root cells.
+  Vec3 lo, len, h;
+  int64_t n[3];
+  double rootLongest = 0;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = -0.5 * grid.spacing[a] - p.padding;
+    len[a] = double(grid.dims[a]) * grid.spacing[a] + 2.0 * p.padding;
+    n[a] = std::max<int64_t>(1, int64_t(std::ceil(len[a] / maxCell - 1e-9)));
+    h[a] = len[a] / double(n[a]);
+    rootLongest = std::max(rootLongest, h[a]);
+  }
+  int L = 0;
+  while (L < kMaxLevels + 1 && rootLongest / double(int64_t(1) << (L + 1)) >= minCell * (1 - 1e-9)) ++L;
+  if (L > kMaxLevels) {
+    std::ostringstream m;
+    m << "min_cell_size " << minCell << " mm needs more than " << kMaxLevels
+      << " octree levels below root cells of " << rootLongest << " mm; raise min_cell_size (or the "
+      << "sizing field's min_size) or lower max_cell_size";
+    throw InputError(m.str());
+  }
+  for (int a = 0; a < 3; ++a)
+    if ((n[a] << L) >= (int64_t(1) << 20)) {
+      std::ostringstream m;
+      m << "the octree would be " << (n[a] << L) << " finest cells along axis " << a
+        << "; raise min_cell_size or max_cell_size";
+      throw InputError(m.str());
+    }
+  st.rootCellSize = rootLongest;
+  const SizingOracle oracle(sizing);
+  auto toPhysical = [&](const Vec3& l) { return grid.origin + mul(grid.direction, l); };
+  // Physical point of half-finest-cell coordinates.
+  const double fine = double(int64_t(1) << L);
+  auto halfToPhysical = [&](int64_t x, int64_t y, int64_t z) {
+    return toPhysical({lo[0] + double(x) * h[0] / (2 * fine), lo[1] + double(y) * h[1] / (2 * fine),
+                       lo[2] + double(z) * h[2] / (2 * fine)});
+  };
+
+  // 1. Refinement, level by level.
+  std::unordered_set<uint64_t> leaves;
+  std::vector<uint64_t> current;
+  for (int64_t k = 0; k < n[2]; ++k)
+    for (int64_t j = 0; j < n[1]; ++j)
+      for (int64_t i = 0; i < n[0]; ++i) current.push_back(leafKey(0, i, j, k));
+  for (int level = 0; !current.empty(); ++level) {
+    std::vector<uint8_t> split(current.size(), 0);
+    const double longest = rootLongest / double(int64_t(1) << level);
+    if (level < L) {
+      const int64_t nc = int64_t(current.size());
+      const int64_t s = int64_t(1) << (L - level);
+#pragma omp parallel for schedule(dynamic, 64)
+      for (int64_t c = 0; c < nc; ++c) {
+        const auto idx = keyIndex(current[size_t(c)]);
+        std::array<Vec3, 8> corners;
+        for (int q = 0; q < 8; ++q)
+          corners[size_t(q)] = halfToPhysical(2 * s * (idx[0] + (q & 1)), 2 * s * (idx[1] + ((q >> 1) & 1)),
+                                              2 * s * (idx[2] + ((q >> 2) & 1)));
+        split[size_t(c)] = double(oracle.minOver(corners)) < longest * (1 - 1e-9) ? 1 : 0;
+      }
+    }
+    std::vector<uint64_t> next;
+    for (size_t c = 0; c < current.size(); ++c) {
+      if (!split[c]) {
+        leaves.insert(current[c]);
+        continue;
+      }
+      const auto idx = keyIndex(current[c]);
+      for (int q = 0; q < 8; ++q)
+        next.push_back(leafKey(level + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1)));
+    }
+    current.swap(next);
+    progress.checkCancel();
+  }
+
+  // 2. Balance: leaves touching by a face, edge or corner differ by at most one level.
+  const int64_t finest[3] = {n[0] << L, n[1] << L, n[2] << L};
+  // Level of the leaf holding finest cell f (-1 outside the box).
+  auto leafLevelAt = [&](const std::array<int64_t, 3>& f) {
+    for (int a = 0; a < 3; ++a)
+      if (f[size_t(a)] < 0 || f[size_t(a)] >= finest[a]) return -1;
+    for (int l = 0; l <= L; ++l) {
+      const int sh = L - l;
+      if (leaves.count(leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh))) return l;
+    }
+    return -1; // unreachable: the leaves tile the box
+  };
+  std::vector<uint64_t> queue(leaves.begin(), leaves.end());
+  std::sort(queue.begin(), queue.end());
+  auto splitLeaf = [&](uint64_t key) {
+    leaves.erase(key);
+    const int l = keyLevel(key);
+    const auto idx = keyIndex(key);
+    for (int q = 0; q < 8; ++q) {
+      const uint64_t child = leafKey(l + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1));
+      leaves.insert(child);
+      queue.push_back(child);
+    }
+    ++st.balanceSplits;
+  };
+  while (!queue.empty()) {
+    const uint64_t key = queue.back();
+    queue.pop_back();
+    if (!leaves.count(key)) continue;
+    const int l = keyLevel(key);
+    if (l < 2) continue;
+    const auto idx = keyIndex(key);
+    const int64_t s = int64_t(1) << (L - l);
+    for (int d = 0; d < 27; ++d) {
+      if (d == 13) continue;
+      std::array<int64_t, 3> f;
+      const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
+      for (int a = 0; a < 3; ++a) f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * s - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s;
+      for (int m = leafLevelAt(f); m >= 0 && m < l - 1; m = leafLevelAt(f)) {
+        const int sh = L - m;
+        splitLeaf(leafKey(m, f[0] >> sh, f[1] >> sh, f[2] >> sh));
+      }
+    }
+  }
+  std::vector<uint64_t> sorted(leaves.begin(), leaves.end());
+  std::sort(sorted.begin(), sorted.end());
+  st.leavesPerLevel.assign(size_t(L + 1), 0);
+  int deepest = 0;
+  for (uint64_t key : sorted) {
+    ++st.leavesPerLevel[size_t(keyLevel(key))];
+    deepest = std::max(deepest, keyLevel(key));
+  }
+  while (!st.leavesPerLevel.empty() && st.leavesPerLevel.back() == 0) st.leavesPerLevel.pop_back();
+  st.levels = deepest + 1;
+  st.finestCellSize = rootLongest / double(int64_t(1) << deepest);
+  progress.endStage();
+  progress.checkCancel();
+
+  // 3. Vertices: corners and centres of the leaves.
+  progress.beginStage("tets");
+  TetMesh& mesh = bg.mesh;
+  std::unordered_map<uint64_t, int32_t> vid;
+  vid.reserve(sorted.size() * 3);
+  auto addVertex = [&](int64_t x, int64_t y, int64_t z, LatticeVertexKind kind) {
+    const auto [it, fresh] = vid.try_emplace(vertexKey(x, y, z), int32_t(mesh.points.size()));
+    if (fresh) {
+      if (mesh.points.size() >= size_t(std::numeric_limits<int32_t>::max()))
+        throw InputError("the octree background mesh would have more than 2^31 vertices; raise min_cell_size");
+      mesh.points.push_back(halfToPhysical(x, y, z));
+      bg.kind.push_back(kind);
+    }
+    return it->second;
+  };
+  for (uint64_t key : sorted) {
+    const auto idx = keyIndex(key);
+    const int64_t s = int64_t(1) << (L - keyLevel(key));
+    for (int q = 0; q < 8; ++q)
+      addVertex(2 * s * (idx[0] + (q & 1)), 2 * s * (idx[1] + ((q >> 1) & 1)), 2 * s * (idx[2] + ((q >> 2) & 1)),
+                LatticeVertexKind::Primal);
+    addVertex(2 * s * idx[0] + s, 2 * s * idx[1] + s, 2 * s * idx[2] + s, LatticeVertexKind::Dual);
+  }
+  const size_t cornerAndCentreCount = mesh.points.size();
+  auto existing = [&](int64_t x, int64_t y, int64_t z) -> int32_t {
+    const auto it = vid.find(vertexKey(x, y, z));
+    return it == vid.end() || size_t(it->second) >= cornerAndCentreCount ? -1 : it->second;
+  };
+
+  // 4. Tets, piece by piece.
+  for (uint64_t key : sorted) {
+    const int l = keyLevel(key);
+    const auto idx = keyIndex(key);
+    const int64_t s = int64_t(1) << (L - l);
+    const int32_t centre = existing(2 * s * idx[0] + s, 2 * s * idx[1] + s, 2 * s * idx[2] + s);
+    for (int face = 0; face < 6; ++face) {
+      const int a = face / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+      const bool plus = face % 2 == 1;
+      std::array<int64_t, 3> probe{idx[0] * s, idx[1] * s, idx[2] * s};
+      probe[size_t(a)] = plus ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s - 1;
+      const int m = leafLevelAt(probe);
+      int32_t other;
+      bool onBox = false;
+      // Face plane and corner coordinates (half units).
+      const int64_t plane = 2 * s * (idx[size_t(a)] + (plus ? 1 : 0));
+      auto at = [&](int64_t u, int64_t v) { // u along b, v along c (half units)
+        std::array<int64_t, 3> x;
+        x[size_t(a)] = plane;
+        x[size_t(b)] = u;
+        x[size_t(c)] = v;
+        return x;
+      };
+      const int64_t u0 = 2 * s * idx[size_t(b)], v0 = 2 * s * idx[size_t(c)];
+      if (m < 0) {
+        const auto fc = at(u0 + s, v0 + s);
+        other = addVertex(fc[0], fc[1], fc[2], LatticeVertexKind::FaceCentre);
+        onBox = true;
+      } else if (m > l || (m == l && !plus)) {
+        continue; // the smaller leaf, or the leaf on the low side, emits this piece
+      } else {
+        const int sh = L - m;
+        const int64_t sm = int64_t(1) << sh;
+        other = existing(2 * sm * (probe[0] >> sh) + sm, 2 * sm * (probe[1] >> sh) + sm, 2 * sm * (probe[2] >> sh) + sm);
+      }
+      const bool transition = !onBox && m != l;
+      const std::array<int64_t, 2> ring[4] = {{u0, v0}, {u0 + 2 * s, v0}, {u0 + 2 * s, v0 + 2 * s}, {u0, v0 + 2 * s}};
+      for (int e = 0; e < 4; ++e) {
+        const auto pa = at(ring[e][0], ring[e][1]);
+        const auto pb = at(ring[(e + 1) % 4][0], ring[(e + 1) % 4][1]);
+        const int32_t va = existing(pa[0], pa[1], pa[2]), vb = existing(pb[0], pb[1], pb[2]);
+        const int32_t mid = existing((pa[0] + pb[0]) / 2, (pa[1] + pb[1]) / 2, (pa[2] + pb[2]) / 2);
+        if (mid >= 0) {
+          mesh.tets.push_back({centre, other, va, mid});
+          mesh.tets.push_back({centre, other, mid, vb});
+          st.bisectedTets += 2;
+          if (transition) st.transitionTets += 2;
+        } else {
+          mesh.tets.push_back({centre, other, va, vb});
+          if (transition) ++st.transitionTets;
+        }
+      }
+    }
+    progress.checkCancel();
+  }
+  const int64_t nt = int64_t(mesh.tets.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nt; ++t)
+    if (mesh.tetVolume(size_t(t)) < 0) std::swap(mesh.tets[size_t(t)][2], mesh.tets[size_t(t)][3]);
+  mesh.materials.assign(mesh.tets.size(), 0);
+  bg.cells = {n[0], n[1], n[2]};
+  bg.cellSize = h;
+  bg.boxVolume = len[0] * len[1] * len[2];
+  progress.endStage();
+  return result;
+}
+
+void reportOctreeBcc(const OctreeBccStats& s, Report& r) {
+  r.set("levels", ReportValue(int64_t(s.levels)));
+  std::string per;
+  for (size_t l = 0; l < s.leavesPerLevel.size(); ++l) {
+    if (!per.empty()) per += " ";
+    per += std::to_string(s.leavesPerLevel[l]);
+  }
+  r.set("leaves_per_level", per);
+  r.set("balance_splits", ReportValue(s.balanceSplits));
+  r.set("transition_tets", ReportValue(s.transitionTets));
+  r.set("bisected_tets", ReportValue(s.bisectedTets));
+  r.set("root_cell_size_mm", ReportValue(s.rootCellSize));
+  r.set("finest_cell_size_mm", ReportValue(s.finestCellSize));
+}
+
+} // namespace tetflow

@@ -1,0 +1,193 @@
+// Graded octree BCC background meshes (Algorithms/BackgroundMesh/OctreeBcc.h).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <random>
+
+#include "Algorithms/BackgroundMesh/BccLattice.h"
+#include "Algorithms/BackgroundMesh/OctreeBcc.h"
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/Quality/MeshQuality.h"
+#include "TestUtil.h"
+
+using namespace tetflow;
+
+namespace {
+
+ScalarVolume fieldOn(const GridGeometry& g, const std::function<float(const Vec3&)>& f) {
+  ScalarVolume v;
+  v.allocate(g);
+  for (int64_t k = 0; k < g.dims[2]; ++k)
+    for (int64_t j = 0; j < g.dims[1]; ++j)
+      for (int64_t i = 0; i < g.dims[0]; ++i) v.at(i, j, k) = f(g.indexToPhysical(double(i), double(j), double(k)));
+  return v;
+}
+
+// Box of the grid's voxel cells in its own frame: lengths per axis.
+Vec3 boxLengths(const GridGeometry& g, double pad) {
+  return {double(g.dims[0]) * g.spacing[0] + 2 * pad, double(g.dims[1]) * g.spacing[1] + 2 * pad,
+          double(g.dims[2]) * g.spacing[2] + 2 * pad};
+}
+
+double triangleArea(const Vec3& a, const Vec3& b, const Vec3& c) { return 0.5 * norm(cross(b - a, c - a)); }
+
+// Valid, conforming, tiles the box: positive tets, every face in one or two tets, the boundary
+// faces closed and their area equal to the box's surface (a gap or a T-junction inside the box
+// would add boundary area), and the volume equal to the box's.
+void expectTilesTheBox(const OctreeBccResult& r, const GridGeometry& g, double pad, double minAngle) {
+  NullProgress np;
+  const TetMesh& m = r.background.mesh;
+  const QualityResult q = evaluateQuality(m, QualityParams{}, np);
+  EXPECT_TRUE(q.valid);
+  EXPECT_EQ(q.inverted, 0);
+  EXPECT_EQ(q.zeroVolume, 0);
+  EXPECT_EQ(q.nonmanifoldFaces, 0);
+  EXPECT_EQ(q.foldedFaces, 0);
+  EXPECT_TRUE(q.boundaryClosed);
+  EXPECT_EQ(q.unreferencedVertices, 0);
+  const Vec3 L = boxLengths(g, pad);
+  const double box = L[0] * L[1] * L[2];
+  EXPECT_NEAR(q.volume, box, 1e-9 * box);
+  EXPECT_NEAR(r.background.boxVolume, box, 1e-9 * box);
+  std::map<std::array<int32_t, 3>, std::array<int32_t, 3>> faces; // sorted -> original
+  std::map<std::array<int32_t, 3>, int> count;
+  for (const auto& t : m.tets)
+    for (int k = 0; k < 4; ++k) {
+      std::array<int32_t, 3> f{t[(k + 1) % 4], t[(k + 2) % 4], t[(k + 3) % 4]};
+      std::array<int32_t, 3> s = f;
+      std::sort(s.begin(), s.end());
+      ++count[s];
+      faces[s] = f;
+    }
+  double area = 0;
+  for (const auto& [s, c] : count)
+    if (c == 1) area += triangleArea(m.points[s[0]], m.points[s[1]], m.points[s[2]]);
+  const double surface = 2 * (L[0] * L[1] + L[1] * L[2] + L[0] * L[2]);
+  EXPECT_NEAR(area, surface, 1e-9 * surface);
+  EXPECT_GE(q.minDihedral, minAngle);
+  EXPECT_EQ(r.background.kind.size(), m.numPoints());
+}
+
+} // namespace
+
+TEST(OctreeBcc, UniformFieldGivesTheRegularLattice) {
+  GridGeometry g;
+  g.dims = {10, 10, 5};
+  NullProgress np;
+  const ScalarVolume s = fieldOn(g, [](const Vec3&) { return 2.5f; });
+  const OctreeBccResult r = generateOctreeBcc(g, s, OctreeBccParams{}, np);
+  const BackgroundMesh reg = generateRegularBcc(g, BccParams{2.5, 0.0}, np);
+  EXPECT_EQ(r.stats.levels, 1);
+  EXPECT_EQ(r.stats.transitionTets, 0);
+  EXPECT_EQ(r.stats.bisectedTets, 0);
+  EXPECT_EQ(r.background.cells, reg.cells);
+  EXPECT_EQ(r.background.mesh.numTets(), reg.mesh.numTets());
+  EXPECT_EQ(r.background.mesh.numPoints(), reg.mesh.numPoints());
+  expectTilesTheBox(r, g, 0.0, 44.9); // BCC tets (60/90 degrees) and the half tets at the box (45)
+}
+
+TEST(OctreeBcc, RandomFieldsGiveValidConformingGradedMeshes) {
+  // Point-focused fields s = s0 + slope * |x - c| with random focus, slopes and grids (including
+  // rotated ones and padding), and a field of independent random values per sample (the harshest:
+  // neighbouring samples differ arbitrarily, so balancing does most of the grading).
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(0, 1);
+  double worst = 180;
+  for (int trial = 0; trial < 16; ++trial) {
+    GridGeometry g;
+    g.dims = {int64_t(8 + rng() % 10), int64_t(8 + rng() % 10), int64_t(6 + rng() % 10)};
+    g.spacing = {0.6 + u(rng), 0.6 + u(rng), 0.6 + u(rng)};
+    g.origin = {10 * u(rng), -5 * u(rng), 3 * u(rng)};
+    if (trial % 4 == 3) {
+      const double a = 2 * M_PI * u(rng), c = std::cos(a), s = std::sin(a);
+      g.direction = {{{c, -s, 0}, {s, c, 0}, {0, 0, 1}}};
+    }
+    const Vec3 focus = g.indexToPhysical(u(rng) * double(g.dims[0]), u(rng) * double(g.dims[1]), u(rng) * double(g.dims[2]));
+    const double s0 = 0.3 + 0.5 * u(rng), slope = 0.1 + 0.5 * u(rng);
+    ScalarVolume s;
+    if (trial % 5 == 4) {
+      s = fieldOn(g, [&](const Vec3&) { return float(0.4 + 6 * u(rng)); });
+    } else {
+      s = fieldOn(g, [&](const Vec3& p) { return float(s0 + slope * norm(p - focus)); });
+    }
+    OctreeBccParams p;
+    p.padding = trial % 3 == 1 ? 1.5 : 0.0;
+    NullProgress np;
+    const OctreeBccResult r = generateOctreeBcc(g, s, p, np);
+    SCOPED_TRACE(::testing::Message() << "trial " << trial << ": levels " << r.stats.levels);
+    EXPECT_GE(r.stats.levels, 2);
+    int levelsWithLeaves = 0;
+    for (int64_t c : r.stats.leavesPerLevel) levelsWithLeaves += c > 0 ? 1 : 0;
+    EXPECT_EQ(r.stats.transitionTets > 0, levelsWithLeaves > 1);
+    expectTilesTheBox(r, g, p.padding, 10.0);
+    NullProgress q;
+    worst = std::min(worst, evaluateQuality(r.background.mesh, QualityParams{}, q).minDihedral);
+  }
+  RecordProperty("worst_min_dihedral_deg", std::to_string(worst));
+  std::printf("worst min dihedral over the random octrees: %.3f deg\n", worst);
+}
+
+TEST(OctreeBcc, CellsFollowTheField) {
+  // Small sizes near one corner, large elsewhere: every leaf is no larger than the smallest field
+  // value over it (or is at min_cell_size), and the mesh is far smaller than a uniform fine one.
+  GridGeometry g;
+  g.dims = {32, 32, 32};
+  const Vec3 focus = g.indexToPhysical(0, 0, 0);
+  const ScalarVolume s = fieldOn(g, [&](const Vec3& p) { return float(1.0 + 0.5 * norm(p - focus)); });
+  NullProgress np;
+  const OctreeBccResult r = generateOctreeBcc(g, s, OctreeBccParams{}, np);
+  EXPECT_NEAR(r.stats.finestCellSize, 1.0, 1e-12);          // 32 / 2^5
+  EXPECT_NEAR(r.stats.rootCellSize, 32.0 / 2.0, 1e-12);     // max 1 + 0.5*sqrt(3)*31.5 = 28.3: 2 roots per axis
+  const BackgroundMesh fine = generateRegularBcc(g, BccParams{1.0, 0.0}, np);
+  EXPECT_LT(r.background.mesh.numTets() * 10, fine.mesh.numTets());
+  // Every Dual vertex is a leaf centre; its own corners are its farthest Primal neighbours, at
+  // sqrt(3)/2 of the leaf edge w. A leaf is split while the field is below w somewhere in it
+  // (samples 1 mm apart), so w <= max(1, field at some point of the leaf), and w = 1 next to the
+  // focus; far from the focus leaves are large.
+  const TetMesh& m = r.background.mesh;
+  std::vector<double> farthest(m.numPoints(), 0.0);
+  for (const auto& t : m.tets)
+    for (int32_t c : t)
+      if (r.background.kind[size_t(c)] == LatticeVertexKind::Dual)
+        for (int32_t w : t)
+          if (r.background.kind[size_t(w)] == LatticeVertexKind::Primal)
+            farthest[size_t(c)] = std::max(farthest[size_t(c)], norm(m.points[size_t(w)] - m.points[size_t(c)]));
+  double largestFar = 0;
+  for (size_t v = 0; v < m.numPoints(); ++v) {
+    if (r.background.kind[v] != LatticeVertexKind::Dual) continue;
+    const double w = 2 * farthest[v] / std::sqrt(3.0);
+    const double d = norm(m.points[v] - focus);
+    EXPECT_LE(w, std::max(1.0, 1.0 + 0.5 * (d + std::sqrt(3.0) / 2 * w)) + 1e-9) << "leaf centre " << v;
+    if (d < 1.0) {
+      EXPECT_NEAR(w, 1.0, 1e-9) << "leaf centre " << v;
+    }
+    if (d > 40) largestFar = std::max(largestFar, w);
+  }
+  EXPECT_GE(largestFar, 8.0);
+  expectTilesTheBox(r, g, 0.0, 10.0);
+}
+
+TEST(OctreeBcc, BadInputIsAnInputError) {
+  GridGeometry g;
+  g.dims = {8, 8, 8};
+  NullProgress np;
+  ScalarVolume s = fieldOn(g, [](const Vec3&) { return 2.0f; });
+  OctreeBccParams p;
+  p.min_cell_size = 3;
+  p.max_cell_size = 2;
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, p, np), InputError, "min_cell_size 3 mm is larger than max_cell_size 2");
+  p = {};
+  p.padding = -1;
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, p, np), InputError, "padding");
+  p = {};
+  p.min_cell_size = 1e-6;
+  p.max_cell_size = 8;
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, p, np), InputError, "octree levels");
+  s.at(3, 4, 5) = 0.0f;
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, OctreeBccParams{}, np), InputError, "sample (3, 4, 5)");
+  s.at(3, 4, 5) = std::nanf("");
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, OctreeBccParams{}, np), InputError, "not a positive size");
+}
