@@ -68,8 +68,27 @@ private:
 
 } // namespace
 
-OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
-                                  const OctreeBccParams& p, Progress& progress) {
+int SizingOctree::levelAt(const std::array<int64_t, 3>& f) const {
+  for (int a = 0; a < 3; ++a)
+    if (f[size_t(a)] < 0 || f[size_t(a)] >= (roots[size_t(a)] << finestLevel)) return -1;
+  for (int l = 0; l <= finestLevel; ++l) {
+    const int sh = finestLevel - l;
+    if (leafSet.count(leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh))) return l;
+  }
+  return -1; // unreachable: the leaves tile the box
+}
+
+int SizingOctree::leafLevel(size_t i) const { return keyLevel(leaves[i]); }
+std::array<int64_t, 3> SizingOctree::leafIndex(size_t i) const { return keyIndex(leaves[i]); }
+
+Vec3 SizingOctree::halfToLocal(int64_t x, int64_t y, int64_t z) const {
+  const double fine = 2.0 * double(int64_t(1) << finestLevel);
+  return {lo[0] + double(x) * rootSize[0] / fine, lo[1] + double(y) * rootSize[1] / fine,
+          lo[2] + double(z) * rootSize[2] / fine};
+}
+
+SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& p,
+                               OctreeBccStats& st, Progress& progress) {
   grid.validate("background mesh: volume");
   sizing.grid.validate("background mesh: sizing field");
   if (sizing.data.size() != size_t(sizing.grid.voxelCount()))
@@ -101,9 +120,6 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
     throw InputError(m.str());
   }
 
-  OctreeBccResult result;
-  BackgroundMesh& bg = result.background;
-  OctreeBccStats& st = result.stats;
   progress.beginStage("octree");
   // Root cells.
   Vec3 lo, len, h;
@@ -235,6 +251,29 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
   st.finestCellSize = rootLongest / double(int64_t(1) << deepest);
   progress.endStage();
   progress.checkCancel();
+  SizingOctree tree;
+  tree.finestLevel = L;
+  tree.roots = {n[0], n[1], n[2]};
+  tree.lo = lo;
+  tree.boxLength = len;
+  tree.rootSize = h;
+  tree.leafSet = std::move(leaves);
+  tree.leaves = std::move(sorted);
+  return tree;
+}
+
+OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
+                                  const OctreeBccParams& p, Progress& progress) {
+  OctreeBccResult result;
+  BackgroundMesh& bg = result.background;
+  OctreeBccStats& st = result.stats;
+  const SizingOctree tree = buildSizingOctree(grid, sizing, p, st, progress);
+  const int L = tree.finestLevel;
+  const std::vector<uint64_t>& sorted = tree.leaves;
+  auto leafLevelAt = [&](const std::array<int64_t, 3>& f) { return tree.levelAt(f); };
+  auto halfToPhysical = [&](int64_t x, int64_t y, int64_t z) {
+    return grid.origin + mul(grid.direction, tree.halfToLocal(x, y, z));
+  };
 
   // 3. Vertices: corners and centres of the leaves.
   progress.beginStage("tets");
@@ -325,9 +364,9 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
   for (int64_t t = 0; t < nt; ++t)
     if (mesh.tetVolume(size_t(t)) < 0) std::swap(mesh.tets[size_t(t)][2], mesh.tets[size_t(t)][3]);
   mesh.materials.assign(mesh.tets.size(), 0);
-  bg.cells = {n[0], n[1], n[2]};
-  bg.cellSize = h;
-  bg.boxVolume = len[0] * len[1] * len[2];
+  bg.cells = tree.roots;
+  bg.cellSize = tree.rootSize;
+  bg.boxVolume = tree.boxLength[0] * tree.boxLength[1] * tree.boxLength[2];
   progress.endStage();
   return result;
 }

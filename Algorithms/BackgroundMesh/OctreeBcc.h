@@ -22,7 +22,9 @@
 //
 // Indices: vertices 0-based in order of first use over the leaves sorted by (level, z, y, x); all
 // tets positively oriented; total volume = box volume.
+#include <array>
 #include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 #include "Algorithms/Core/Progress.h"
@@ -52,6 +54,28 @@ struct OctreeBccResult {
   BackgroundMesh background;
   OctreeBccStats stats;
 };
+
+// The balanced octree alone, in the grid's own frame (local coordinates: lo = the box's low
+// corner; physical = grid.origin + grid.direction * local). Leaf i has level leafLevel(i) and
+// index leafIndex(i) at that level: it spans lo + index * rootSize / 2^level over one cell of
+// rootSize / 2^level. Leaves are sorted by (level, z, y, x) and tile the box.
+struct SizingOctree {
+  int finestLevel = 0;                   // deepest level allowed by min_cell_size
+  std::array<int64_t, 3> roots{0, 0, 0}; // root cells per axis
+  Vec3 lo{0, 0, 0}, boxLength{0, 0, 0}, rootSize{0, 0, 0}; // mm
+  std::vector<uint64_t> leaves;          // packed keys, sorted
+  std::unordered_set<uint64_t> leafSet;
+  size_t size() const { return leaves.size(); }
+  int leafLevel(size_t i) const;
+  std::array<int64_t, 3> leafIndex(size_t i) const;
+  // Level of the leaf holding the finest cell f (finest-cell coordinates), -1 outside the box.
+  int levelAt(const std::array<int64_t, 3>& f) const;
+  // Local point of half-finest-cell coordinates.
+  Vec3 halfToLocal(int64_t x, int64_t y, int64_t z) const;
+};
+// Refines and balances as described above; fills stats except the tet counts.
+SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& params,
+                               OctreeBccStats& stats, Progress& progress);
 
 // `sizing`: a scalar volume of element sizes in mm (e.g. ComputeSizingField's output), any grid;
 // every value must be finite and > 0. Throws InputError naming the culprit (parameters, a bad
