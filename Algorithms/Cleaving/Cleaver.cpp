@@ -532,6 +532,9 @@ void Cleaver::sample() {
     std::vector<MaterialSample> s;
 #pragma omp for schedule(dynamic, 1)
     for (int64_t bi = 0; bi < nBlocks; ++bi) {
+      // Cancellation: skip the remaining blocks; the exception is thrown after the parallel
+      // region (an exception leaving an OpenMP region would terminate the process).
+      if (progress_.cancelRequested()) continue;
       auto& out = blockSamples[static_cast<size_t>(bi)];
       for (int64_t v = bi * block; v < std::min(nv, (bi + 1) * block); ++v) {
         mats_.sample(pos_[v], s);
@@ -546,12 +549,10 @@ void Cleaver::sample() {
         counts[v + 1] = static_cast<int64_t>(s.size());
         out.insert(out.end(), s.begin(), s.end());
       }
-      if (bi % 64 == 0) {
-        progress_.report(double(bi) / double(nBlocks));
-        progress_.checkCancel();
-      }
+      if (bi % 64 == 0) progress_.report(double(bi) / double(nBlocks));
     }
   }
+  progress_.checkCancel();
   sampleStart_.assign(static_cast<size_t>(nv) + 1, 0);
   for (int64_t v = 0; v < nv; ++v) sampleStart_[v + 1] = sampleStart_[v] + counts[v + 1];
   samples_.clear();

@@ -318,6 +318,24 @@ TEST(Cleaver, SpheresIndicatorFunctions) {
   }
 }
 
+TEST(Cleaver, CancellingFromAWorkerThreadThrowsCancelled) {
+  // The first progress report comes from inside the parallel sampling loop; cancelling there must
+  // end the run with Cancelled after the loop (an exception inside an OpenMP region would abort).
+  struct CancelOnFirstReport : Progress {
+    void onReport(double) override { requestCancel(); }
+  };
+  PhantomParams pp;
+  pp.kind = PhantomKind::Sphere;
+  pp.radius = 20;
+  const Phantom ph = makePhantom(pp);
+  auto vol = std::make_shared<const LabelVolume>(ph.volume);
+  LabelMaterials mats(vol, 1.0);
+  NullProgress np;
+  const BackgroundMesh bg = generateRegularBcc(vol->grid, BccParams{1.0, 0.0}, np);
+  CancelOnFirstReport cancel;
+  EXPECT_THROW(cleave(bg, mats, CleaveParams{}, cancel), Cancelled);
+}
+
 TEST(Cleaver, BadParametersAreInputErrors) {
   PhantomParams pp;
   pp.kind = PhantomKind::Sphere;

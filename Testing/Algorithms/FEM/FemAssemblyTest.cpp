@@ -141,6 +141,16 @@ TEST(FemAssembly, ResultDoesNotDependOnTheStarBlockSizeAndIsExactlySymmetric) {
   }
 }
 
+TEST(FemAssembly, CancellingStopsBetweenStarBlocks) {
+  struct CancelOnFirstReport : Progress {
+    void onReport(double) override { requestCancel(); }
+  };
+  const TetMesh m = perturbedBox({6, 5, 4}, 3);
+  ConductivityTable s;
+  CancelOnFirstReport cancel;
+  EXPECT_THROW(assembleStiffness(m, s, cancel, 50), Cancelled);
+}
+
 TEST(FemAssembly, BoundaryVerticesMatchAFaceCountOnRandomSubsets) {
   // Random subsets of a box's tets (holes, pinched vertices, separate pieces): a vertex is on the
   // boundary exactly when it lies on a face used by one tet.
