@@ -12,6 +12,7 @@ void registerStandardModules(ModuleRegistry& r) {
   registerWriteMesh(r);
   registerEvaluateQuality(r);
   registerReadIndicatorFunctions(r);
+  registerComputeSizingField(r);
   registerGenerateBackgroundMesh(r);
   registerCleaveMesh(r);
   registerAssembleFEMPoisson(r);

@@ -17,6 +17,7 @@ void registerEvaluateQuality(ModuleRegistry& r);
 
 void registerReadIndicatorFunctions(ModuleRegistry& r);
 void registerGenerateBackgroundMesh(ModuleRegistry& r);
+void registerComputeSizingField(ModuleRegistry& r);
 void registerCleaveMesh(ModuleRegistry& r);
 void registerAssembleFEMPoisson(ModuleRegistry& r);
 
