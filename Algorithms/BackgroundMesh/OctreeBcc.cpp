@@ -133,7 +133,9 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
     rootLongest = std::max(rootLongest, h[a]);
   }
   int L = 0;
-  while (L < kMaxLevels + 1 && rootLongest / double(int64_t(1) << (L + 1)) >= minCell * (1 - 1e-9)) ++L;
+  // Levels until a leaf is no larger than min_cell_size (the finest leaves lie in
+  // (min_cell_size / 2, min_cell_size]).
+  while (L < kMaxLevels + 1 && rootLongest / double(int64_t(1) << L) > minCell * (1 + 1e-9)) ++L;
   if (L > kMaxLevels) {
     std::ostringstream m;
     m << "min_cell_size " << minCell << " mm needs more than " << kMaxLevels
@@ -177,7 +179,7 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
         for (int q = 0; q < 8; ++q)
           corners[size_t(q)] = halfToPhysical(2 * s * (idx[0] + (q & 1)), 2 * s * (idx[1] + ((q >> 1) & 1)),
                                               2 * s * (idx[2] + ((q >> 2) & 1)));
-        split[size_t(c)] = double(oracle.minOver(corners)) < longest * (1 - 1e-9) ? 1 : 0;
+        split[size_t(c)] = longest > minCell * (1 + 1e-9) && double(oracle.minOver(corners)) < longest * (1 - 1e-9) ? 1 : 0;
       }
     }
     std::vector<uint64_t> next;

@@ -6,7 +6,8 @@
 // max_cell_size per axis (n_a = ceil(L_a / max_cell_size), so cells tile the box exactly and are
 // slightly rectangular when L_a is not a multiple). A cell is split into 8 while the smallest
 // sizing-field value over it (the samples inside it, or the nearest sample when none is) is below
-// its longest edge, and its children would not be smaller than min_cell_size. The tree is then
+// its longest edge and that edge is longer than min_cell_size, so leaves are no larger than the
+// field over them down to min_cell_size, and no smaller than min_cell_size / 2. The tree is then
 // balanced: leaves that touch (by a face, an edge or a corner) differ by at most one level.
 //
 // Vertices: leaf corners (kind Primal), leaf centres (Dual), and the centres of leaf faces on the
@@ -35,7 +36,7 @@
 namespace tetflow {
 
 struct OctreeBccParams {
-  double min_cell_size = 0.0; // mm, smallest leaf edge; 0 = the sizing field's minimum
+  double min_cell_size = 0.0; // mm, leaves stop splitting at this edge; 0 = the sizing field's minimum
   double max_cell_size = 0.0; // mm, root cell edge; 0 = the sizing field's maximum
   double padding = 0.0;       // mm added around the volume's box on every side (>= 0)
 };
