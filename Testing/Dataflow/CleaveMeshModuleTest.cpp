@@ -66,3 +66,31 @@ TEST(CleaveMeshModule, LostMaterialIsLoggedAndStripExteriorWorks) {
   EXPECT_NE(p.exec.state("cl")->error.find("strip_exterior"), std::string::npos);
   EXPECT_EQ(p.exec.state("q")->status, ModuleStatus::Skipped);
 }
+
+TEST(CleaveMeshModule, OctreeBackgroundFromASizingField) {
+  Pipeline p("two_spheres", 1.5);
+  p.net.addModule("ComputeSizingField", "sf");
+  p.net.setParameterText("sf", "min_size", "1");
+  p.net.connect("p", 0, "sf", 0);
+  // octree_bcc without its sizing field: an input error naming the port and the fix.
+  p.net.setParameterText("bg", "kind", "octree_bcc");
+  auto sum = p.exec.execute(p.net);
+  ASSERT_FALSE(sum.success);
+  EXPECT_NE(p.exec.state("bg")->error.find("input port 1 'sizing'"), std::string::npos) << p.exec.state("bg")->error;
+  EXPECT_NE(p.exec.state("bg")->error.find("ComputeSizingField"), std::string::npos);
+  // Connected: a graded lattice, cleaved into a valid mesh.
+  p.net.connect("sf", 0, "bg", 1);
+  sum = p.exec.execute(p.net);
+  ASSERT_TRUE(sum.success) << p.exec.state("bg")->error << p.exec.state("cl")->error;
+  EXPECT_GE(p.report("bg").number("levels"), 2);
+  EXPECT_GT(p.report("bg").number("transition_tets"), 0);
+  EXPECT_EQ(std::get<bool>(*p.report("q").find("valid")), true);
+  EXPECT_EQ(std::get<std::string>(*p.report("cl").find("materials_lost")), "none");
+  EXPECT_EQ(std::get<std::string>(*p.report("cl").find("background")), "bcc_lattice");
+  // A regular lattice ignores a connected sizing field, and says so.
+  p.net.setParameterText("bg", "kind", "regular_bcc");
+  ASSERT_TRUE(p.exec.execute(p.net).success);
+  const auto& msgs = p.exec.state("bg")->messages;
+  ASSERT_EQ(msgs.size(), 1u);
+  EXPECT_NE(msgs[0].find("ignores the sizing field"), std::string::npos) << msgs[0];
+}
