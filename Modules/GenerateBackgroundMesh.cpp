@@ -43,7 +43,9 @@ public:
       p.min_cell_size = ctx.getDouble("min_cell_size");
       p.max_cell_size = ctx.getDouble("max_cell_size");
       p.padding = ctx.getDouble("padding");
-      OctreeBccResult o = generateOctreeBcc(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress());
+      std::shared_ptr<const MaterialSet> mats;
+      if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
+      OctreeBccResult o = generateOctreeBcc(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress(), mats.get());
       bg = std::move(o.background);
       r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
                               std::to_string(bg.cells[2]));
@@ -104,7 +106,13 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
                                "octree_bcc: smallest leaf edge; 0 = the sizing field's minimum");
   ParamSpec maxc = doubleParam("max_cell_size", 0.0, 0.0, std::nullopt, "mm",
                                "octree_bcc: root cell edge; 0 = the sizing field's maximum");
-  m.params = {kind, cs, pad, minc, maxc};
+  ParamSpec uni = makeParam("uniform_interfaces", ParamType::Bool, false, "",
+                            "octree_bcc: refine until no graded (transition or bisected) tet is cut by a "
+                            "material interface (seed §4.8.1); better angles after cleaving, more tets");
+  ParamSpec sigma = doubleParam("blend_sigma", 1.0, 0.05, 10.0, "voxels",
+                                "uniform_interfaces with a label volume: smoothing into indicator "
+                                "functions (use CleaveMesh's value)");
+  m.params = {kind, cs, pad, minc, maxc, uni, sigma};
   m.summaryKeys = {"cells", "levels", "tets"};
   m.factory = [] { return std::make_unique<GenerateBackgroundMesh>(); };
   r.add(std::move(m));

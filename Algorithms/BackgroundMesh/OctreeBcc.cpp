@@ -78,6 +78,60 @@ int SizingOctree::levelAt(const std::array<int64_t, 3>& f) const {
   return -1; // unreachable: the leaves tile the box
 }
 
+void SizingOctree::split(uint64_t key, std::vector<uint64_t>* touched) {
+  leafSet.erase(key);
+  const int l = keyLevel(key);
+  const auto idx = keyIndex(key);
+  for (int q = 0; q < 8; ++q) {
+    const uint64_t child = leafKey(l + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1));
+    leafSet.insert(child);
+    if (touched) touched->push_back(child);
+  }
+}
+
+int64_t SizingOctree::balance(std::vector<uint64_t> queue) {
+  int64_t splits = 0;
+  const int L = finestLevel;
+  while (!queue.empty()) {
+    const uint64_t key = queue.back();
+    queue.pop_back();
+    if (!leafSet.count(key)) continue;
+    const int l = keyLevel(key);
+    if (l < 2) continue;
+    const auto idx = keyIndex(key);
+    const int64_t s = int64_t(1) << (L - l);
+    for (int d = 0; d < 27; ++d) {
+      if (d == 13) continue;
+      std::array<int64_t, 3> f;
+      const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
+      for (int a = 0; a < 3; ++a)
+        f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * s - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s;
+      for (int m = levelAt(f); m >= 0 && m < l - 1; m = levelAt(f)) {
+        const int sh = L - m;
+        split(leafKey(m, f[0] >> sh, f[1] >> sh, f[2] >> sh), &queue);
+        ++splits;
+      }
+    }
+  }
+  return splits;
+}
+
+void SizingOctree::finish(OctreeBccStats& st) {
+  leaves.assign(leafSet.begin(), leafSet.end());
+  std::sort(leaves.begin(), leaves.end());
+  st.leavesPerLevel.assign(size_t(finestLevel + 1), 0);
+  int deepest = 0;
+  for (uint64_t key : leaves) {
+    ++st.leavesPerLevel[size_t(keyLevel(key))];
+    deepest = std::max(deepest, keyLevel(key));
+  }
+  while (!st.leavesPerLevel.empty() && st.leavesPerLevel.back() == 0) st.leavesPerLevel.pop_back();
+  const double rootLongest = std::max({rootSize[0], rootSize[1], rootSize[2]});
+  st.levels = deepest + 1;
+  st.rootCellSize = rootLongest;
+  st.finestCellSize = rootLongest / double(int64_t(1) << deepest);
+}
+
 int SizingOctree::leafLevel(size_t i) const { return keyLevel(leaves[i]); }
 std::array<int64_t, 3> SizingOctree::leafIndex(size_t i) const { return keyIndex(leaves[i]); }
 
@@ -197,62 +251,6 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   }
 
   // 2. Balance: leaves touching by a face, edge or corner differ by at most one level.
-  const int64_t finest[3] = {n[0] << L, n[1] << L, n[2] << L};
-  // Level of the leaf holding finest cell f (-1 outside the box).
-  auto leafLevelAt = [&](const std::array<int64_t, 3>& f) {
-    for (int a = 0; a < 3; ++a)
-      if (f[size_t(a)] < 0 || f[size_t(a)] >= finest[a]) return -1;
-    for (int l = 0; l <= L; ++l) {
-      const int sh = L - l;
-      if (leaves.count(leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh))) return l;
-    }
-    return -1; // unreachable: the leaves tile the box
-  };
-  std::vector<uint64_t> queue(leaves.begin(), leaves.end());
-  std::sort(queue.begin(), queue.end());
-  auto splitLeaf = [&](uint64_t key) {
-    leaves.erase(key);
-    const int l = keyLevel(key);
-    const auto idx = keyIndex(key);
-    for (int q = 0; q < 8; ++q) {
-      const uint64_t child = leafKey(l + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1));
-      leaves.insert(child);
-      queue.push_back(child);
-    }
-    ++st.balanceSplits;
-  };
-  while (!queue.empty()) {
-    const uint64_t key = queue.back();
-    queue.pop_back();
-    if (!leaves.count(key)) continue;
-    const int l = keyLevel(key);
-    if (l < 2) continue;
-    const auto idx = keyIndex(key);
-    const int64_t s = int64_t(1) << (L - l);
-    for (int d = 0; d < 27; ++d) {
-      if (d == 13) continue;
-      std::array<int64_t, 3> f;
-      const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
-      for (int a = 0; a < 3; ++a) f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * s - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s;
-      for (int m = leafLevelAt(f); m >= 0 && m < l - 1; m = leafLevelAt(f)) {
-        const int sh = L - m;
-        splitLeaf(leafKey(m, f[0] >> sh, f[1] >> sh, f[2] >> sh));
-      }
-    }
-  }
-  std::vector<uint64_t> sorted(leaves.begin(), leaves.end());
-  std::sort(sorted.begin(), sorted.end());
-  st.leavesPerLevel.assign(size_t(L + 1), 0);
-  int deepest = 0;
-  for (uint64_t key : sorted) {
-    ++st.leavesPerLevel[size_t(keyLevel(key))];
-    deepest = std::max(deepest, keyLevel(key));
-  }
-  while (!st.leavesPerLevel.empty() && st.leavesPerLevel.back() == 0) st.leavesPerLevel.pop_back();
-  st.levels = deepest + 1;
-  st.finestCellSize = rootLongest / double(int64_t(1) << deepest);
-  progress.endStage();
-  progress.checkCancel();
   SizingOctree tree;
   tree.finestLevel = L;
   tree.roots = {n[0], n[1], n[2]};
@@ -260,16 +258,30 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   tree.boxLength = len;
   tree.rootSize = h;
   tree.leafSet = std::move(leaves);
-  tree.leaves = std::move(sorted);
+  std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
+  std::sort(all.begin(), all.end());
+  st.balanceSplits += tree.balance(std::move(all));
+  tree.finish(st);
+  progress.endStage();
+  progress.checkCancel();
   return tree;
 }
 
-OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
-                                  const OctreeBccParams& p, Progress& progress) {
-  OctreeBccResult result;
-  BackgroundMesh& bg = result.background;
-  OctreeBccStats& st = result.stats;
-  const SizingOctree tree = buildSizingOctree(grid, sizing, p, st, progress);
+namespace {
+
+// The tets of a balanced tree, with for each tet the leaves on either side of its piece (indices
+// into tree.leaves; the second is -1 on the box) and whether it is a transition or bisected tet.
+struct TreeMesh {
+  BackgroundMesh bg;
+  std::vector<uint64_t> vertexKeys;          // per vertex
+  std::vector<std::array<int32_t, 2>> owner; // per tet
+  std::vector<uint8_t> graded;               // per tet: transition or bisected
+  int64_t transitionTets = 0, bisectedTets = 0;
+};
+
+TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress) {
+  TreeMesh tm;
+  BackgroundMesh& bg = tm.bg;
   const int L = tree.finestLevel;
   const std::vector<uint64_t>& sorted = tree.leaves;
   auto leafLevelAt = [&](const std::array<int64_t, 3>& f) { return tree.levelAt(f); };
@@ -277,8 +289,6 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
     return grid.origin + mul(grid.direction, tree.halfToLocal(x, y, z));
   };
 
-  // 3. Vertices: corners and centres of the leaves.
-  progress.beginStage("tets");
   TetMesh& mesh = bg.mesh;
   std::unordered_map<uint64_t, int32_t> vid;
   vid.reserve(sorted.size() * 3);
@@ -289,6 +299,7 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
         throw InputError("the octree background mesh would have more than 2^31 vertices; raise min_cell_size");
       mesh.points.push_back(halfToPhysical(x, y, z));
       bg.kind.push_back(kind);
+      tm.vertexKeys.push_back(vertexKey(x, y, z));
     }
     return it->second;
   };
@@ -306,8 +317,13 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
     return it == vid.end() || size_t(it->second) >= cornerAndCentreCount ? -1 : it->second;
   };
 
-  // 4. Tets, piece by piece.
-  for (uint64_t key : sorted) {
+  // Tets, piece by piece.
+  auto leafIndexOf = [&](int level, int64_t i, int64_t j, int64_t k) {
+    const uint64_t key = leafKey(level, i, j, k);
+    return int32_t(std::lower_bound(sorted.begin(), sorted.end(), key) - sorted.begin());
+  };
+  for (size_t li = 0; li < sorted.size(); ++li) {
+    const uint64_t key = sorted[li];
     const int l = keyLevel(key);
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - l);
@@ -319,6 +335,7 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
       probe[size_t(a)] = plus ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s - 1;
       const int m = leafLevelAt(probe);
       int32_t other;
+      int32_t otherLeaf = -1;
       bool onBox = false;
       // Face plane and corner coordinates (half units).
       const int64_t plane = 2 * s * (idx[size_t(a)] + (plus ? 1 : 0));
@@ -340,7 +357,9 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
         const int sh = L - m;
         const int64_t sm = int64_t(1) << sh;
         other = existing(2 * sm * (probe[0] >> sh) + sm, 2 * sm * (probe[1] >> sh) + sm, 2 * sm * (probe[2] >> sh) + sm);
+        otherLeaf = leafIndexOf(m, probe[0] >> sh, probe[1] >> sh, probe[2] >> sh);
       }
+      const std::array<int32_t, 2> owners{int32_t(li), otherLeaf};
       const bool transition = !onBox && m != l;
       const std::array<int64_t, 2> ring[4] = {{u0, v0}, {u0 + 2 * s, v0}, {u0 + 2 * s, v0 + 2 * s}, {u0, v0 + 2 * s}};
       for (int e = 0; e < 4; ++e) {
@@ -351,11 +370,15 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
         if (mid >= 0) {
           mesh.tets.push_back({centre, other, va, mid});
           mesh.tets.push_back({centre, other, mid, vb});
-          st.bisectedTets += 2;
-          if (transition) st.transitionTets += 2;
+          tm.bisectedTets += 2;
+          if (transition) tm.transitionTets += 2;
+          tm.owner.insert(tm.owner.end(), 2, owners);
+          tm.graded.insert(tm.graded.end(), 2, uint8_t(1));
         } else {
           mesh.tets.push_back({centre, other, va, vb});
-          if (transition) ++st.transitionTets;
+          if (transition) ++tm.transitionTets;
+          tm.owner.push_back(owners);
+          tm.graded.push_back(transition ? 1 : 0);
         }
       }
     }
@@ -369,7 +392,128 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
   bg.cells = tree.roots;
   bg.cellSize = tree.rootSize;
   bg.boxVolume = tree.boxLength[0] * tree.boxLength[1] * tree.boxLength[2];
+  return tm;
+}
+
+} // namespace
+
+OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
+                                  const OctreeBccParams& p, Progress& progress, const MaterialSet* materials) {
+  OctreeBccResult result;
+  OctreeBccStats& st = result.stats;
+  SizingOctree tree = buildSizingOctree(grid, sizing, p, st, progress);
+  progress.beginStage("tets");
+  TreeMesh tm = meshFromTree(tree, grid, progress);
   progress.endStage();
+  if (materials) {
+    // Keep the graded tets away from the material interfaces (seed §4.8.1): a transition or
+    // bisected tet whose vertices do not all carry the same dominant material has its coarser
+    // leaf split (both leaves when they are equal and the tet is bisected because of a finer
+    // leaf nearby); then the tree is rebalanced and meshed again, until no graded tet is cut.
+    progress.beginStage("uniform interfaces");
+    std::unordered_map<uint64_t, int32_t> labelOf; // by vertex key, kept across rounds
+    std::vector<MaterialSample> buf;
+    for (int round = 0;; ++round) {
+      const TetMesh& m = tm.bg.mesh;
+      const int64_t nv = int64_t(m.numPoints());
+      std::vector<int32_t> label(size_t(nv), -1);
+      std::vector<int64_t> fresh;
+      for (int64_t v = 0; v < nv; ++v) {
+        const auto it = labelOf.find(tm.vertexKeys[size_t(v)]);
+        if (it != labelOf.end()) label[size_t(v)] = it->second;
+        else fresh.push_back(v);
+      }
+#pragma omp parallel
+      {
+        std::vector<MaterialSample> smp;
+#pragma omp for schedule(dynamic, 1024)
+        for (int64_t f = 0; f < int64_t(fresh.size()); ++f) {
+          const int64_t v = fresh[size_t(f)];
+          materials->sample(m.points[size_t(v)], smp);
+          int32_t best = smp.empty() ? 0 : smp[0].material;
+          float bestV = smp.empty() ? 0.0f : smp[0].value;
+          for (const auto& x : smp)
+            if (x.value > bestV) { // ties keep the lower material index, as cleaving does
+              best = x.material;
+              bestV = x.value;
+            }
+          label[size_t(v)] = best;
+        }
+      }
+      for (int64_t v : fresh) labelOf[tm.vertexKeys[size_t(v)]] = label[size_t(v)];
+      std::vector<uint64_t> toSplit;
+      int64_t cut = 0;
+      for (size_t t = 0; t < m.numTets(); ++t) {
+        if (!tm.graded[t]) continue;
+        const auto& q = m.tets[t];
+        const int32_t l0 = label[size_t(q[0])];
+        if (label[size_t(q[1])] == l0 && label[size_t(q[2])] == l0 && label[size_t(q[3])] == l0) continue;
+        ++cut;
+        const auto [a, b] = tm.owner[t];
+        const int la = tree.leafLevel(size_t(a)), lb = b >= 0 ? tree.leafLevel(size_t(b)) : la;
+        if (la < tree.finestLevel && la <= lb) toSplit.push_back(tree.leaves[size_t(a)]);
+        if (b >= 0 && lb < tree.finestLevel && lb <= la) toSplit.push_back(tree.leaves[size_t(b)]);
+      }
+      std::sort(toSplit.begin(), toSplit.end());
+      toSplit.erase(std::unique(toSplit.begin(), toSplit.end()), toSplit.end());
+      st.gradedInterfaceTets = cut;
+      st.interfaceRounds = round;
+      if (toSplit.empty() || round == 100) break;
+      // Spread along the interface in this round: a leaf of the same level touching a marked leaf
+      // (face, edge or corner) whose corners and centre do not all carry one material would be
+      // marked in a later round anyway (its graded tets become cut once its neighbour is split).
+      {
+        const int L = tree.finestLevel;
+        auto mixed = [&](uint64_t key) {
+          const auto idx = keyIndex(key);
+          const int64_t sz = int64_t(1) << (L - keyLevel(key));
+          const auto centre = labelOf.find(vertexKey(2 * sz * idx[0] + sz, 2 * sz * idx[1] + sz, 2 * sz * idx[2] + sz));
+          if (centre == labelOf.end()) return false;
+          for (int q = 0; q < 8; ++q) {
+            const auto c = labelOf.find(vertexKey(2 * sz * (idx[0] + (q & 1)), 2 * sz * (idx[1] + ((q >> 1) & 1)),
+                                                  2 * sz * (idx[2] + ((q >> 2) & 1))));
+            if (c != labelOf.end() && c->second != centre->second) return true;
+          }
+          return false;
+        };
+        std::unordered_set<uint64_t> marked(toSplit.begin(), toSplit.end());
+        std::vector<uint64_t> queue = toSplit;
+        while (!queue.empty()) {
+          const uint64_t key = queue.back();
+          queue.pop_back();
+          const int l = keyLevel(key);
+          const auto idx = keyIndex(key);
+          const int64_t sz = int64_t(1) << (L - l);
+          for (int d = 0; d < 27; ++d) {
+            if (d == 13) continue;
+            const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
+            std::array<int64_t, 3> f;
+            for (int a = 0; a < 3; ++a)
+              f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * sz - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * sz : idx[size_t(a)] * sz;
+            if (tree.levelAt(f) != l) continue;
+            const int sh = L - l;
+            const uint64_t nb = leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh);
+            if (marked.count(nb) || !mixed(nb)) continue;
+            marked.insert(nb);
+            queue.push_back(nb);
+            toSplit.push_back(nb);
+          }
+        }
+      }
+      std::vector<uint64_t> touched;
+      for (uint64_t key : toSplit) tree.split(key, &touched);
+      st.interfaceSplits += int64_t(toSplit.size());
+      st.balanceSplits += tree.balance(std::move(touched));
+      tree.finish(st);
+      tm = meshFromTree(tree, grid, progress);
+      progress.checkCancel();
+    }
+    progress.endStage();
+  }
+  st.transitionTets = tm.transitionTets;
+  st.bisectedTets = tm.bisectedTets;
+  result.background = std::move(tm.bg);
+  result.graded = std::move(tm.graded);
   return result;
 }
 
@@ -382,6 +526,9 @@ void reportOctreeBcc(const OctreeBccStats& s, Report& r) {
   }
   r.set("leaves_per_level", per);
   r.set("balance_splits", ReportValue(s.balanceSplits));
+  r.set("interface_splits", ReportValue(s.interfaceSplits));
+  r.set("interface_rounds", ReportValue(int64_t(s.interfaceRounds)));
+  r.set("graded_tets_on_interfaces", ReportValue(s.gradedInterfaceTets));
   r.set("transition_tets", ReportValue(s.transitionTets));
   r.set("bisected_tets", ReportValue(s.bisectedTets));
   r.set("root_cell_size_mm", ReportValue(s.rootCellSize));

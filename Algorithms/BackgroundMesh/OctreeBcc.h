@@ -31,6 +31,7 @@
 #include "Algorithms/Core/Progress.h"
 #include "Algorithms/Core/Report.h"
 #include "Algorithms/Core/Volume.h"
+#include "Algorithms/Cleaving/Materials.h"
 #include "BccLattice.h"
 
 namespace tetflow {
@@ -45,6 +46,9 @@ struct OctreeBccStats {
   int levels = 0;                       // levels used (1 = roots only)
   std::vector<int64_t> leavesPerLevel;  // index = level (0 = roots)
   int64_t balanceSplits = 0;            // leaves split to keep neighbours within one level
+  int64_t interfaceSplits = 0;          // leaves split so no graded tet crosses an interface
+  int interfaceRounds = 0;              // mesh / split rounds for that
+  int64_t gradedInterfaceTets = 0;      // graded tets still cut by an interface (0 = none)
   int64_t transitionTets = 0;           // tets between leaves of different sizes
   int64_t bisectedTets = 0;             // tets on a split edge (two per split edge and piece)
   double rootCellSize = 0.0;            // mm, longest edge of a root cell
@@ -54,6 +58,7 @@ struct OctreeBccStats {
 struct OctreeBccResult {
   BackgroundMesh background;
   OctreeBccStats stats;
+  std::vector<uint8_t> graded; // per tet: 1 for a transition or bisected tet
 };
 
 // The balanced octree alone, in the grid's own frame (local coordinates: lo = the box's low
@@ -73,6 +78,12 @@ struct SizingOctree {
   int levelAt(const std::array<int64_t, 3>& f) const;
   // Local point of half-finest-cell coordinates.
   Vec3 halfToLocal(int64_t x, int64_t y, int64_t z) const;
+  // Editing (leafSet only; finish() rebuilds `leaves` and the level statistics): split one leaf
+  // into its 8 children (appended to *touched when given); restore the 2:1 balance around the
+  // leaves in `queue` and everything split meanwhile, returning the number of splits.
+  void split(uint64_t key, std::vector<uint64_t>* touched);
+  int64_t balance(std::vector<uint64_t> queue);
+  void finish(OctreeBccStats& stats);
 };
 // Refines and balances as described above; fills stats except the tet counts.
 SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& params,
@@ -81,8 +92,16 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
 // `sizing`: a scalar volume of element sizes in mm (e.g. ComputeSizingField's output), any grid;
 // every value must be finite and > 0. Throws InputError naming the culprit (parameters, a bad
 // sizing value, a tree that would need more than 12 levels or 2^31 vertices).
+// With `materials`, graded tets are kept off the material interfaces: while a transition or
+// bisected tet has vertices of different dominant materials (argmax of the indicator functions,
+// ties to the lower index - the labels cleaving gives them), its coarser leaf is split (both
+// when equal) and the tree rebalanced, then meshed again (seed §4.8.1: graded tets only in
+// homogeneous regions). Such a leaf is always above the finest level, so every round splits;
+// after at most 100 rounds the graded tets still cut are counted in stats.gradedInterfaceTets
+// (0 when the rule holds everywhere).
 OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
-                                  const OctreeBccParams& params, Progress& progress);
+                                  const OctreeBccParams& params, Progress& progress,
+                                  const MaterialSet* materials = nullptr);
 
 void reportOctreeBcc(const OctreeBccStats& stats, Report& report);
 

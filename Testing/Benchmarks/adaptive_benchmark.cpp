@@ -54,22 +54,33 @@ std::string row(const std::string& what, double prepSeconds, const BackgroundMes
   return s + "\n";
 }
 
-void compare(std::ostringstream& out, const MaterialSet& mats, bool stripZero,
-             const std::vector<SizingFieldParams>& fields, const std::vector<double>& regularCells) {
+// A sizing-field configuration, optionally with uniform_interfaces (materials given to the octree).
+struct FieldRun {
+  SizingFieldParams params;
+  bool uniform = false;
+};
+
+void compare(std::ostringstream& out, const MaterialSet& mats, bool stripZero, const std::vector<FieldRun>& fields,
+             const std::vector<double>& regularCells) {
   out << "# run                                 field  backg  cleave  backg_tets   out_tets  min_deg max_deg <10deg valid  volume error per material\n";
   NullProgress np;
-  for (const SizingFieldParams& sp : fields) {
+  for (const FieldRun& run : fields) {
+    const SizingFieldParams& sp = run.params;
     const double a = now();
     const SizingFieldResult f = computeSizingField(mats, sp, np);
     const double b = now();
-    const OctreeBccResult o = generateOctreeBcc(mats.grid(), f.field, OctreeBccParams{}, np);
+    const OctreeBccResult o = generateOctreeBcc(mats.grid(), f.field, OctreeBccParams{}, np, run.uniform ? &mats : nullptr);
     const double c = now();
     std::ostringstream w;
-    w << "octree rate " << sp.sampling_rate << " L " << sp.lipschitz << " min " << sp.min_size;
+    w << "octree rate " << sp.sampling_rate << " L " << sp.lipschitz << " min " << sp.min_size << (run.uniform ? " uniform" : "");
     out << row(w.str(), b - a, o.background, c - b, mats, stripZero);
     out << "    field " << f.minSize << ".." << f.maxSize << " mm, " << f.interfaceSamples << " interface / "
         << f.medialSamples << " medial samples; octree " << o.stats.levels << " levels, finest leaf "
-        << o.stats.finestCellSize << " mm\n";
+        << o.stats.finestCellSize << " mm";
+    if (run.uniform)
+      out << "; uniform interfaces: " << o.stats.interfaceSplits << " splits in " << o.stats.interfaceRounds
+          << " rounds, graded tets left on interfaces " << o.stats.gradedInterfaceTets;
+    out << "\n";
   }
   for (double cell : regularCells) {
     const double a = now();
@@ -93,12 +104,14 @@ int main(int argc, char** argv) {
   auto vol = std::make_shared<const LabelVolume>(ph.volume);
   const LabelMaterials head(vol, 1.0);
   out << "head phantom " << vol->grid.dims[0] << "^3 voxels of 2 mm (air stripped; the CSF is a 2 mm shell, one voxel):\n";
-  std::vector<SizingFieldParams> hf(3);
-  hf[0].min_size = 2;
-  hf[1].min_size = 4;
-  hf[2].min_size = 4;
-  hf[2].lipschitz = 0.5;
-  for (auto& f : hf) f.max_size = 32;
+  std::vector<FieldRun> hf(4);
+  hf[0].params.min_size = 2;
+  hf[1].params.min_size = 4;
+  hf[2].params.min_size = 4;
+  hf[2].uniform = true;
+  hf[3].params.min_size = 4;
+  hf[3].params.lipschitz = 0.5;
+  for (auto& f : hf) f.params.max_size = 32;
   compare(out, head, true, hf, {2.0, 2.5, 3.0, 4.0});
   std::cout << out.str() << std::flush;
 
@@ -106,11 +119,14 @@ int main(int argc, char** argv) {
   for (int i = 1; i <= 4; ++i) vols.push_back(readScalarVolume(spheresDir + "/spheres" + std::to_string(i) + ".nrrd"));
   const IndicatorMaterials spheres(std::move(vols), {1, 2, 3, 4});
   out << "spheres1..4 (28^3 indicator functions, 4 materials, nothing stripped):\n";
-  std::vector<SizingFieldParams> sf(2);
-  sf[0].sampling_rate = 2;
-  sf[0].min_size = 0.5;
-  sf[1].sampling_rate = 2;
-  sf[1].min_size = 0.75;
+  std::vector<FieldRun> sf(4);
+  for (auto& f : sf) f.params.sampling_rate = 2;
+  sf[0].params.min_size = 0.5;
+  sf[1].params.min_size = 0.5;
+  sf[1].uniform = true;
+  sf[2].params.min_size = 0.75;
+  sf[3].params.min_size = 0.75;
+  sf[3].uniform = true;
   compare(out, spheres, false, sf, {0.5, 0.75, 1.0});
 
   std::cout << out.str().substr(out.str().find("spheres1..4"));

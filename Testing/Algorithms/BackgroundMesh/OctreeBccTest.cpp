@@ -9,6 +9,7 @@
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/BackgroundMesh/OctreeBcc.h"
+#include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "TestUtil.h"
@@ -190,4 +191,67 @@ TEST(OctreeBcc, BadInputIsAnInputError) {
   EXPECT_THROW_MSG(generateOctreeBcc(g, s, OctreeBccParams{}, np), InputError, "sample (3, 4, 5)");
   s.at(3, 4, 5) = std::nanf("");
   EXPECT_THROW_MSG(generateOctreeBcc(g, s, OctreeBccParams{}, np), InputError, "not a positive size");
+}
+
+TEST(OctreeBcc, UniformInterfacesKeepGradedTetsOffTheInterfaces) {
+  // Random blobs of 2-4 labels with a field that is small near one corner: graded tets first
+  // cross the interfaces; with the materials given, none does afterwards (checked here against
+  // the dominant material at every vertex), the mesh still tiles the box, and cleaving it gives a
+  // valid mesh.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  int64_t splits = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    GridGeometry g;
+    g.dims = {int64_t(12 + rng() % 8), int64_t(12 + rng() % 8), int64_t(10 + rng() % 8)};
+    auto vol = std::make_shared<LabelVolume>();
+    vol->allocate(g, 0);
+    const int blobs = 2 + int(rng() % 3);
+    for (int b = 0; b < blobs; ++b) {
+      const Vec3 c = g.indexToPhysical(u(rng) * double(g.dims[0]), u(rng) * double(g.dims[1]), u(rng) * double(g.dims[2]));
+      const double r = 2 + 4 * u(rng);
+      for (int64_t k = 0; k < g.dims[2]; ++k)
+        for (int64_t j = 0; j < g.dims[1]; ++j)
+          for (int64_t i = 0; i < g.dims[0]; ++i)
+            if (norm(g.indexToPhysical(double(i), double(j), double(k)) - c) < r) vol->at(i, j, k) = b + 1;
+    }
+    const LabelMaterials mats(vol, 1.0);
+    const Vec3 focus = g.indexToPhysical(0, 0, 0);
+    const ScalarVolume s = fieldOn(g, [&](const Vec3& p) { return float(1.0 + 0.4 * norm(p - focus)); });
+    NullProgress np;
+    const OctreeBccResult plain = generateOctreeBcc(g, s, OctreeBccParams{}, np);
+    const OctreeBccResult r = generateOctreeBcc(g, s, OctreeBccParams{}, np, &mats);
+    SCOPED_TRACE(::testing::Message() << "trial " << trial << ": rounds " << r.stats.interfaceRounds);
+    const TetMesh& m = r.background.mesh;
+    ASSERT_EQ(r.graded.size(), m.numTets());
+    std::vector<int32_t> label(m.numPoints());
+    std::vector<MaterialSample> smp;
+    for (size_t v = 0; v < m.numPoints(); ++v) {
+      mats.sample(m.points[v], smp);
+      int32_t best = smp[0].material;
+      float bestV = smp[0].value;
+      for (const auto& x : smp)
+        if (x.value > bestV) {
+          best = x.material;
+          bestV = x.value;
+        }
+      label[v] = best;
+    }
+    int64_t cut = 0;
+    for (size_t t = 0; t < m.numTets(); ++t) {
+      const auto& q = m.tets[t];
+      const bool mixed = label[size_t(q[1])] != label[size_t(q[0])] || label[size_t(q[2])] != label[size_t(q[0])] ||
+                         label[size_t(q[3])] != label[size_t(q[0])];
+      if (mixed && r.graded[t]) ++cut;
+    }
+    EXPECT_EQ(cut, 0);
+    EXPECT_EQ(r.stats.gradedInterfaceTets, 0);
+    splits += r.stats.interfaceSplits;
+    EXPECT_GE(r.background.mesh.numTets(), plain.background.mesh.numTets());
+    expectTilesTheBox(r, g, 0.0, 10.0);
+    CleaveParams cp;
+    const CleaveResult c = cleave(r.background, mats, cp, np);
+    EXPECT_TRUE(evaluateQuality(c.mesh, QualityParams{}, np).valid);
+  }
+  EXPECT_GT(splits, 0); // the rule had work to do
 }
