@@ -14,6 +14,7 @@ namespace tetflow {
 namespace {
 
 constexpr int kMaxLevels = 12; // levels below the roots
+constexpr int64_t kMaxTets = (int64_t(1) << 31) - 1;
 
 // Leaf key: level (4 bits) and the cell index at that level (20 bits per axis).
 uint64_t leafKey(int level, int64_t i, int64_t j, int64_t k) {
@@ -166,8 +167,12 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
     smin = std::min(smin, s);
     smax = std::max(smax, s);
   }
-  const double minCell = p.min_cell_size > 0 ? p.min_cell_size : double(smin);
-  const double maxCell = p.max_cell_size > 0 ? p.max_cell_size : double(smax);
+  // A defaulted bound follows the one that was given (min_size 4 with max_cell_size 2 asks for a
+  // uniform 2 mm lattice, not for an error about a parameter left at 0).
+  double minCell = p.min_cell_size > 0 ? p.min_cell_size : double(smin);
+  double maxCell = p.max_cell_size > 0 ? p.max_cell_size : double(smax);
+  if (p.min_cell_size <= 0) minCell = std::min(minCell, maxCell);
+  if (p.max_cell_size <= 0) maxCell = std::max(maxCell, minCell);
   if (minCell > maxCell) {
     std::ostringstream m;
     m << "min_cell_size " << minCell << " mm is larger than max_cell_size " << maxCell << " mm";
@@ -182,7 +187,14 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   for (int a = 0; a < 3; ++a) {
     lo[a] = -0.5 * grid.spacing[a] - p.padding;
     len[a] = double(grid.dims[a]) * grid.spacing[a] + 2.0 * p.padding;
-    n[a] = std::max<int64_t>(1, int64_t(std::ceil(len[a] / maxCell - 1e-9)));
+    const double cells = std::ceil(len[a] / maxCell - 1e-9);
+    if (!(cells < double(int64_t(1) << 20))) {
+      std::ostringstream m;
+      m << "root cells of " << maxCell << " mm give " << cells << " cells along axis " << a
+        << "; raise max_cell_size (or the sizing field's max_size)";
+      throw InputError(m.str());
+    }
+    n[a] = std::max<int64_t>(1, int64_t(cells));
     h[a] = len[a] / double(n[a]);
     rootLongest = std::max(rootLongest, h[a]);
   }
@@ -214,6 +226,12 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
                        lo[2] + double(z) * h[2] / (2 * fine)});
   };
 
+  if (n[0] * n[1] * n[2] * 24 > kMaxTets) {
+    std::ostringstream m;
+    m << n[0] << " x " << n[1] << " x " << n[2] << " root cells of " << rootLongest
+      << " mm are too many for one mesh; raise max_cell_size (or the sizing field's max_size)";
+    throw InputError(m.str());
+  }
   // 1. Refinement, level by level.
   std::unordered_set<uint64_t> leaves;
   std::vector<uint64_t> current;
@@ -235,6 +253,17 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
                                               2 * s * (idx[2] + ((q >> 2) & 1)));
         split[size_t(c)] = longest > minCell * (1 + 1e-9) && double(oracle.minOver(corners)) < longest * (1 - 1e-9) ? 1 : 0;
       }
+    }
+    // Every leaf gives at most 24 tets (6 faces x 4 edges, bisected), and tets are int32-indexed:
+    // refuse before allocating a tree that could not be meshed.
+    int64_t splits = 0;
+    for (uint8_t f : split) splits += f;
+    if ((int64_t(leaves.size()) + int64_t(current.size()) + 7 * splits) * 24 > kMaxTets) {
+      std::ostringstream m;
+      m << "the sizing field asks for more than " << kMaxTets / 24 << " octree leaves (" << kMaxTets
+        << " tets) at level " << level + 1 << "; raise min_size / min_cell_size or lower the "
+        << "sizing field's resolution";
+      throw InputError(m.str());
     }
     std::vector<uint64_t> next;
     for (size_t c = 0; c < current.size(); ++c) {
@@ -382,6 +411,9 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
         }
       }
     }
+    if (int64_t(mesh.tets.size()) > kMaxTets)
+      throw InputError("the octree background mesh would have more than 2^31 - 1 tets; raise min_cell_size "
+                       "(or the sizing field's min_size)");
     progress.checkCancel();
   }
   const int64_t nt = int64_t(mesh.tets.size());

@@ -21,8 +21,9 @@
 // bisected BCC tets of Labelle & Shewchuk - so the mesh is conforming. Between equal leaves away
 // from level changes the tets are the regular BCC tets (dihedral angles 60 and 90 degrees).
 //
-// Indices: vertices 0-based in order of first use over the leaves sorted by (level, z, y, x); all
-// tets positively oriented; total volume = box volume.
+// Indices: vertices 0-based: leaf corners and centres in order of first use over the leaves
+// sorted by (level, z, y, x), then the face centres on the box; all tets positively oriented;
+// total volume = box volume.
 #include <array>
 #include <cstdint>
 #include <unordered_set>
@@ -91,7 +92,8 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
 
 // `sizing`: a scalar volume of element sizes in mm (e.g. ComputeSizingField's output), any grid;
 // every value must be finite and > 0. Throws InputError naming the culprit (parameters, a bad
-// sizing value, a tree that would need more than 12 levels or 2^31 vertices).
+// sizing value, a tree that would need more than 12 levels, more than 2^20 finest cells along an
+// axis, or more than 2^31 - 1 tets - checked level by level before the leaves are allocated).
 // With `materials`, graded tets are kept off the material interfaces: while a transition or
 // bisected tet has vertices of different dominant materials (argmax of the indicator functions,
 // ties to the lower index - the labels cleaving gives them), its coarser leaf is split (both

@@ -63,7 +63,11 @@ std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh) {
   const std::vector<int32_t> degree = vertexDegrees(mesh);
   // The faces of the star of v are (v, a, b) for the other two vertices a < b of each face of a
   // star tet that contains v; v is on the boundary when one of them occurs only once.
+  int32_t maxDegree = 0;
+  for (int32_t d : degree) maxDegree = std::max(maxDegree, d);
+  // Reserved here, not grown inside the parallel loop (an allocation failure there would abort).
   std::vector<std::vector<uint64_t>> keys(static_cast<size_t>(omp_get_max_threads()));
+  for (auto& k : keys) k.reserve(size_t(3) * size_t(maxDegree));
   NullProgress quiet;
   forEachVertexStar(mesh, degree, defaultStarBlockCorners(4 * int64_t(mesh.numTets())), quiet,
                     [&](int thread, int32_t v, const int32_t* tets, size_t n) {
@@ -202,19 +206,22 @@ SparseMatrix assembleStiffness(const TetMesh& mesh, const ConductivityTable& sig
   const int64_t np = static_cast<int64_t>(mesh.numPoints());
   if (np >= int64_t(std::numeric_limits<int>::max()))
     throw InputError("mesh has too many vertices for 32-bit sparse indices");
-  if (4 * int64_t(mesh.numTets()) >= int64_t(std::numeric_limits<int32_t>::max()))
-    throw InputError("mesh has too many tets for 32-bit vertex degrees");
+  if (int64_t(mesh.numTets()) >= int64_t(std::numeric_limits<int32_t>::max()))
+    throw InputError("mesh has too many tets for 32-bit tet indices");
   const TetConductivity cond(mesh, sigma);
   const std::vector<int32_t> degree = vertexDegrees(mesh);
   if (blockCorners <= 0) blockCorners = defaultStarBlockCorners(4 * int64_t(mesh.numTets()));
   const int threads = omp_get_max_threads();
   // Per thread: mark[v] == j while column j is gathered (reset to -1 first).
-  std::vector<std::vector<int32_t>> mark(static_cast<size_t>(threads));
+  // Allocated here, not inside the parallel loops (an allocation failure there would abort).
+  std::vector<std::vector<int32_t>> mark(static_cast<size_t>(threads), std::vector<int32_t>(size_t(np), -1));
   std::vector<std::vector<int32_t>> rows(static_cast<size_t>(threads));
+  int32_t maxDegree = 0;
+  for (int32_t d : degree) maxDegree = std::max(maxDegree, d);
+  for (auto& r : rows) r.reserve(size_t(4) * size_t(maxDegree));
   // Gathers the distinct vertices of the star of j (j included) into rows[thread], unsorted.
   auto gather = [&](int thread, int32_t j, const int32_t* tets, size_t n) -> std::vector<int32_t>& {
     std::vector<int32_t>& mk = mark[size_t(thread)];
-    if (mk.empty()) mk.assign(size_t(np), -1);
     std::vector<int32_t>& r = rows[size_t(thread)];
     r.clear();
     for (size_t s = 0; s < n; ++s)

@@ -23,7 +23,8 @@ namespace tetflow {
 // Number of tet corners at each vertex (a tet naming a vertex twice counts twice). Parallel.
 std::vector<int32_t> vertexDegrees(const TetMesh& mesh);
 
-// Default block budget: a quarter of all corners (so four passes over the tets), at least 2^18.
+// Default block budget: a quarter of all corners (four or five passes over the tets: blocks are
+// whole vertices), at least 2^18.
 inline int64_t defaultStarBlockCorners(int64_t totalCorners) {
   return std::max<int64_t>(int64_t(1) << 18, (totalCorners + 3) / 4);
 }

@@ -128,6 +128,7 @@ TEST(OctreeBcc, RandomFieldsGiveValidConformingGradedMeshes) {
     worst = std::min(worst, evaluateQuality(r.background.mesh, QualityParams{}, q).minDihedral);
   }
   RecordProperty("worst_min_dihedral_deg", std::to_string(worst));
+  EXPECT_GE(worst, 20.0); // measured 20.94 deg with these seeds (README)
   std::printf("worst min dihedral over the random octrees: %.3f deg\n", worst);
 }
 
@@ -161,7 +162,17 @@ TEST(OctreeBcc, CellsFollowTheField) {
     if (r.background.kind[v] != LatticeVertexKind::Dual) continue;
     const double w = 2 * farthest[v] / std::sqrt(3.0);
     const double d = norm(m.points[v] - focus);
-    EXPECT_LE(w, std::max(1.0, 1.0 + 0.5 * (d + std::sqrt(3.0) / 2 * w)) + 1e-9) << "leaf centre " << v;
+    // The refinement rule, brute force: a leaf larger than the finest (1 mm) has no field sample
+    // (at integer mm here) below its edge inside it.
+    if (w > 1.0 + 1e-9) {
+      double minSample = 1e300;
+      const Vec3& c = m.points[v];
+      for (int64_t k = int64_t(std::ceil(c[2] - w / 2 - 1e-9)); k <= int64_t(std::floor(c[2] + w / 2 + 1e-9)); ++k)
+        for (int64_t j = int64_t(std::ceil(c[1] - w / 2 - 1e-9)); j <= int64_t(std::floor(c[1] + w / 2 + 1e-9)); ++j)
+          for (int64_t i = int64_t(std::ceil(c[0] - w / 2 - 1e-9)); i <= int64_t(std::floor(c[0] + w / 2 + 1e-9)); ++i)
+            if (i >= 0 && j >= 0 && k >= 0 && i < 32 && j < 32 && k < 32) minSample = std::min(minSample, double(s.at(i, j, k)));
+      EXPECT_GE(minSample, w * (1 - 1e-6)) << "leaf centre " << v << " edge " << w;
+    }
     if (d < 1.0) {
       EXPECT_NEAR(w, 1.0, 1e-9) << "leaf centre " << v;
     }
@@ -187,6 +198,21 @@ TEST(OctreeBcc, BadInputIsAnInputError) {
   p.min_cell_size = 1e-6;
   p.max_cell_size = 8;
   EXPECT_THROW_MSG(generateOctreeBcc(g, s, p, np), InputError, "octree levels");
+  // A defaulted bound follows the given one: a 2 mm field with only max_cell_size 1 is a uniform
+  // 1 mm lattice, not an error about min_cell_size.
+  p = {};
+  p.max_cell_size = 1;
+  const OctreeBccResult fine = generateOctreeBcc(g, s, p, np);
+  EXPECT_EQ(fine.background.cells, (std::array<int64_t, 3>{8, 8, 8}));
+  EXPECT_EQ(fine.stats.levels, 1);
+  // Sizes: refused before allocating, naming what to change.
+  p = {};
+  p.max_cell_size = 1e-3;
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, p, np), InputError, "too many for one mesh", "max_cell_size");
+  p.max_cell_size = 1e-9;
+  EXPECT_THROW_MSG(generateOctreeBcc(g, s, p, np), InputError, "cells along axis", "max_cell_size");
+  const ScalarVolume tiny = fieldOn(g, [](const Vec3& x) { return x[0] < 1 ? 0.01f : 8.0f; });
+  EXPECT_THROW_MSG(generateOctreeBcc(g, tiny, OctreeBccParams{}, np), InputError, "octree leaves", "min_cell_size");
   s.at(3, 4, 5) = 0.0f;
   EXPECT_THROW_MSG(generateOctreeBcc(g, s, OctreeBccParams{}, np), InputError, "sample (3, 4, 5)");
   s.at(3, 4, 5) = std::nanf("");
