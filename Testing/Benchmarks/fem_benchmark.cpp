@@ -141,26 +141,30 @@ int main(int argc, char** argv) {
   Eigen::VectorXd b = Eigen::VectorXd::Random(Kr.rows());
   for (int t : {1, threads}) {
     omp_set_num_threads(t);
+    // Best of 3 for each figure: this machine is shared, and one disturbed run moves the ratio.
     const int reps = 200;
     multiplySymmetric(Kr, x, y);
-    const double a = now();
-    for (int i = 0; i < reps; ++i) multiplySymmetric(Kr, x, y);
-    const double spmv = (now() - a) / reps;
-    IterativeSolver solver({SolverKind::Minres, PreconditionerKind::Jacobi, 1e-30, 300});
-    solver.setOperator(Kr);
-    Eigen::VectorXd sol;
-    const double c = now();
-    solver.solve(b, sol);
-    const double perIt = (now() - c) / double(solver.iterations());
-    IterativeSolver cg({SolverKind::Cg, PreconditionerKind::Jacobi, 1e-30, 300});
-    cg.setOperator(Kr);
-    const double e = now();
-    cg.solve(b, sol);
-    const double perCg = (now() - e) / double(cg.iterations());
+    double spmv = 1e300, perIt = 1e300, perCg = 1e300;
+    for (int trial = 0; trial < 3; ++trial) {
+      const double a = now();
+      for (int i = 0; i < reps; ++i) multiplySymmetric(Kr, x, y);
+      spmv = std::min(spmv, (now() - a) / reps);
+      IterativeSolver solver({SolverKind::Minres, PreconditionerKind::Jacobi, 1e-30, 300});
+      solver.setOperator(Kr);
+      Eigen::VectorXd sol;
+      const double c = now();
+      solver.solve(b, sol);
+      perIt = std::min(perIt, (now() - c) / double(solver.iterations()));
+      IterativeSolver cg({SolverKind::Cg, PreconditionerKind::Jacobi, 1e-30, 300});
+      cg.setOperator(Kr);
+      const double e = now();
+      cg.solve(b, sol);
+      perCg = std::min(perCg, (now() - e) / double(cg.iterations()));
+    }
     char line[400];
     std::snprintf(line, sizeof line,
                   "%d thread(s): one mat-vec %.3f ms (%.2f GB/s of matrix data); MINRES %.3f ms per iteration "
-                  "(%.2f mat-vecs); CG %.3f ms per iteration (%.2f mat-vecs) [300 iterations each]\n",
+                  "(%.2f mat-vecs); CG %.3f ms per iteration (%.2f mat-vecs) [300 iterations each, best of 3]\n",
                   t, 1e3 * spmv, double(Kr.nonZeros()) * 12.0 / spmv / 1e9, 1e3 * perIt, perIt / spmv,
                   1e3 * perCg, perCg / spmv);
     out << line;
