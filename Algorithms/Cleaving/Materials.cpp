@@ -55,8 +55,40 @@ void LabelMaterials::sample(const Vec3& p, std::vector<MaterialSample>& out) con
     lo[a] = static_cast<int64_t>(std::ceil(u[a] - radius_));
     hi[a] = static_cast<int64_t>(std::floor(u[a] + radius_));
   }
+  // Homogeneous neighbourhood (most queries): one material with value 1, exactly what the sums
+  // below give when every weighted voxel has the same label.
+  {
+    const int32_t first = volume_->at(std::clamp<int64_t>(lo[0], 0, g.dims[0] - 1),
+                                      std::clamp<int64_t>(lo[1], 0, g.dims[1] - 1),
+                                      std::clamp<int64_t>(lo[2], 0, g.dims[2] - 1));
+    bool uniform = true;
+    for (int64_t k = lo[2]; k <= hi[2] && uniform; ++k) {
+      const int64_t kk = std::clamp<int64_t>(k, 0, g.dims[2] - 1);
+      for (int64_t j = lo[1]; j <= hi[1] && uniform; ++j) {
+        const int64_t jj = std::clamp<int64_t>(j, 0, g.dims[1] - 1);
+        const int32_t* row = volume_->data.data() + g.dims[0] * (jj + g.dims[1] * kk);
+        for (int64_t i = lo[0]; i <= hi[0]; ++i)
+          if (row[std::clamp<int64_t>(i, 0, g.dims[0] - 1)] != first) {
+            uniform = false;
+            break;
+          }
+      }
+    }
+    if (uniform) {
+      out.push_back({denseIndex(first), 1.0f});
+      return;
+    }
+  }
   const double inv2s2 = 1.0 / (2.0 * sigma_ * sigma_);
   const double invR2 = 1.0 / (radius_ * radius_);
+  // The Gaussian factor is separable: one exp per axis offset instead of one per voxel.
+  double gx[64], gy[64], gz[64];
+  const bool separable = hi[0] - lo[0] < 64 && hi[1] - lo[1] < 64 && hi[2] - lo[2] < 64;
+  if (separable) {
+    for (int64_t i = lo[0]; i <= hi[0]; ++i) gx[i - lo[0]] = std::exp(-(double(i) - u[0]) * (double(i) - u[0]) * inv2s2);
+    for (int64_t j = lo[1]; j <= hi[1]; ++j) gy[j - lo[1]] = std::exp(-(double(j) - u[1]) * (double(j) - u[1]) * inv2s2);
+    for (int64_t k = lo[2]; k <= hi[2]; ++k) gz[k - lo[2]] = std::exp(-(double(k) - u[2]) * (double(k) - u[2]) * inv2s2);
+  }
   double total = 0.0;
   // Small linear map label -> accumulated weight (few labels meet at any point).
   int32_t labs[16];
@@ -75,7 +107,8 @@ void LabelMaterials::sample(const Vec3& p, std::vector<MaterialSample>& out) con
         const double d2 = dx * dx + dy * dy + dz * dz;
         if (d2 >= radius_ * radius_) continue;
         const double taper = 1.0 - d2 * invR2;
-        const double w = std::exp(-d2 * inv2s2) * taper * taper;
+        const double gauss = separable ? gx[i - lo[0]] * gy[j - lo[1]] * gz[k - lo[2]] : std::exp(-d2 * inv2s2);
+        const double w = gauss * taper * taper;
         const int32_t l = row[std::clamp<int64_t>(i, 0, g.dims[0] - 1)];
         total += w;
         int s = 0;
