@@ -462,14 +462,7 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
         for (int64_t f = 0; f < int64_t(fresh.size()); ++f) {
           const int64_t v = fresh[size_t(f)];
           materials->sample(m.points[size_t(v)], smp);
-          int32_t best = smp.empty() ? 0 : smp[0].material;
-          float bestV = smp.empty() ? 0.0f : smp[0].value;
-          for (const auto& x : smp)
-            if (x.value > bestV) { // ties keep the lower material index, as cleaving does
-              best = x.material;
-              bestV = x.value;
-            }
-          label[size_t(v)] = best;
+          label[size_t(v)] = dominantMaterial(smp);
         }
       }
       for (int64_t v : fresh) labelOf[tm.vertexKeys[size_t(v)]] = label[size_t(v)];

@@ -538,14 +538,7 @@ void Cleaver::sample() {
       auto& out = blockSamples[static_cast<size_t>(bi)];
       for (int64_t v = bi * block; v < std::min(nv, (bi + 1) * block); ++v) {
         mats_.sample(pos_[v], s);
-        int32_t best = s.empty() ? 0 : s[0].material;
-        float bestV = s.empty() ? 0.0f : s[0].value;
-        for (const auto& x : s)
-          if (x.value > bestV) { // strict: ties keep the lower material index
-            best = x.material;
-            bestV = x.value;
-          }
-        label_[v] = best;
+        label_[v] = dominantMaterial(s);
         counts[v + 1] = static_cast<int64_t>(s.size());
         out.insert(out.end(), s.begin(), s.end());
       }

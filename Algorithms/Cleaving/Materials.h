@@ -27,6 +27,20 @@ struct MaterialSample {
   float value;
 };
 
+// The material present at a sampled point: the largest value, ties to the lower material index
+// (entries are sorted by material); 0 for an empty sample. Cleaving, the sizing field and the
+// octree's uniform_interfaces all label points this way.
+inline int32_t dominantMaterial(const std::vector<MaterialSample>& s) {
+  int32_t best = s.empty() ? 0 : s[0].material;
+  float bestV = s.empty() ? 0.0f : s[0].value;
+  for (const auto& x : s)
+    if (x.value > bestV) { // strict: ties keep the lower material index
+      best = x.material;
+      bestV = x.value;
+    }
+  return best;
+}
+
 class MaterialSet {
 public:
   virtual ~MaterialSet() = default;

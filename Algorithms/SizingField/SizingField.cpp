@@ -298,14 +298,7 @@ SizingFieldResult computeSizingField(const MaterialSet& materials, const SizingF
         int32_t* out = label.data() + k * stride[2] + j * stride[1] + pad;
         for (int64_t i = 0; i < cx; ++i) {
           materials.sample(sampler.position(i + pad, j, k), s);
-          int32_t best = s.empty() ? 0 : s[0].material;
-          float bestV = s.empty() ? 0.0f : s[0].value;
-          for (const auto& e : s)
-            if (e.value > bestV) { // strict: ties keep the lower material index
-              best = e.material;
-              bestV = e.value;
-            }
-          best = std::clamp(best, 0, K - 1);
+          const int32_t best = std::clamp(dominantMaterial(s), 0, K - 1);
           out[i] = best;
           ++localPresent[static_cast<size_t>(best)];
         }

@@ -254,14 +254,7 @@ TEST(OctreeBcc, UniformInterfacesKeepGradedTetsOffTheInterfaces) {
     std::vector<MaterialSample> smp;
     for (size_t v = 0; v < m.numPoints(); ++v) {
       mats.sample(m.points[v], smp);
-      int32_t best = smp[0].material;
-      float bestV = smp[0].value;
-      for (const auto& x : smp)
-        if (x.value > bestV) {
-          best = x.material;
-          bestV = x.value;
-        }
-      label[v] = best;
+      label[v] = dominantMaterial(smp);
     }
     int64_t cut = 0;
     for (size_t t = 0; t < m.numTets(); ++t) {
