@@ -346,13 +346,44 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
     return it == vid.end() || size_t(it->second) >= cornerAndCentreCount ? -1 : it->second;
   };
 
-  // Tets, piece by piece.
+  // Face-centre vertices of the leaf faces on the box (before the tets, so that the tet pass
+  // only reads the vertex map and can run in parallel).
+  const int64_t finest[3] = {tree.roots[0] << L, tree.roots[1] << L, tree.roots[2] << L};
+  for (uint64_t key : sorted) {
+    const auto idx = keyIndex(key);
+    const int64_t s = int64_t(1) << (L - keyLevel(key));
+    for (int face = 0; face < 6; ++face) {
+      const int a = face / 2;
+      const bool plus = face % 2 == 1;
+      if (plus ? (idx[size_t(a)] + 1) * s < finest[a] : idx[size_t(a)] > 0) continue;
+      std::array<int64_t, 3> fc{2 * s * idx[0] + s, 2 * s * idx[1] + s, 2 * s * idx[2] + s};
+      fc[size_t(a)] = 2 * s * (idx[size_t(a)] + (plus ? 1 : 0));
+      addVertex(fc[0], fc[1], fc[2], LatticeVertexKind::FaceCentre);
+    }
+  }
+  auto faceCentreId = [&](const std::array<int64_t, 3>& x) { return vid.find(vertexKey(x[0], x[1], x[2]))->second; };
+
+  // Tets, piece by piece, in parallel over blocks of leaves; blocks are joined in leaf order, so
+  // the mesh does not depend on the thread count.
   auto leafIndexOf = [&](int level, int64_t i, int64_t j, int64_t k) {
     const uint64_t key = leafKey(level, i, j, k);
     return int32_t(std::lower_bound(sorted.begin(), sorted.end(), key) - sorted.begin());
   };
-  for (size_t li = 0; li < sorted.size(); ++li) {
-    const uint64_t key = sorted[li];
+  struct Block {
+    std::vector<TetMesh::Tet> tets;
+    std::vector<std::array<int32_t, 2>> owner;
+    std::vector<uint8_t> graded;
+    int64_t transition = 0, bisected = 0;
+  };
+  const int64_t nLeaves = int64_t(sorted.size());
+  const int64_t blockSize = 4096;
+  const int64_t nBlocks = (nLeaves + blockSize - 1) / blockSize;
+  std::vector<Block> blocks(static_cast<size_t>(nBlocks));
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t bi = 0; bi < nBlocks; ++bi) {
+   Block& out = blocks[size_t(bi)];
+   for (int64_t li = bi * blockSize; li < std::min(nLeaves, (bi + 1) * blockSize); ++li) {
+    const uint64_t key = sorted[size_t(li)];
     const int l = keyLevel(key);
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - l);
@@ -377,8 +408,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
       };
       const int64_t u0 = 2 * s * idx[size_t(b)], v0 = 2 * s * idx[size_t(c)];
       if (m < 0) {
-        const auto fc = at(u0 + s, v0 + s);
-        other = addVertex(fc[0], fc[1], fc[2], LatticeVertexKind::FaceCentre);
+        other = faceCentreId(at(u0 + s, v0 + s));
         onBox = true;
       } else if (m > l || (m == l && !plus)) {
         continue; // the smaller leaf, or the leaf on the low side, emits this piece
@@ -397,25 +427,39 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
         const int32_t va = existing(pa[0], pa[1], pa[2]), vb = existing(pb[0], pb[1], pb[2]);
         const int32_t mid = existing((pa[0] + pb[0]) / 2, (pa[1] + pb[1]) / 2, (pa[2] + pb[2]) / 2);
         if (mid >= 0) {
-          mesh.tets.push_back({centre, other, va, mid});
-          mesh.tets.push_back({centre, other, mid, vb});
-          tm.bisectedTets += 2;
-          if (transition) tm.transitionTets += 2;
-          tm.owner.insert(tm.owner.end(), 2, owners);
-          tm.graded.insert(tm.graded.end(), 2, uint8_t(1));
+          out.tets.push_back({centre, other, va, mid});
+          out.tets.push_back({centre, other, mid, vb});
+          out.bisected += 2;
+          if (transition) out.transition += 2;
+          out.owner.insert(out.owner.end(), 2, owners);
+          out.graded.insert(out.graded.end(), 2, uint8_t(1));
         } else {
-          mesh.tets.push_back({centre, other, va, vb});
-          if (transition) ++tm.transitionTets;
-          tm.owner.push_back(owners);
-          tm.graded.push_back(transition ? 1 : 0);
+          out.tets.push_back({centre, other, va, vb});
+          if (transition) ++out.transition;
+          out.owner.push_back(owners);
+          out.graded.push_back(transition ? 1 : 0);
         }
       }
     }
-    if (int64_t(mesh.tets.size()) > kMaxTets)
-      throw InputError("the octree background mesh would have more than 2^31 - 1 tets; raise min_cell_size "
-                       "(or the sizing field's min_size)");
-    progress.checkCancel();
+   }
   }
+  size_t total = 0;
+  for (const Block& blk : blocks) total += blk.tets.size();
+  if (total > size_t(kMaxTets))
+    throw InputError("the octree background mesh would have more than 2^31 - 1 tets; raise min_cell_size "
+                     "(or the sizing field's min_size)");
+  mesh.tets.reserve(total);
+  tm.owner.reserve(total);
+  tm.graded.reserve(total);
+  for (Block& blk : blocks) {
+    mesh.tets.insert(mesh.tets.end(), blk.tets.begin(), blk.tets.end());
+    tm.owner.insert(tm.owner.end(), blk.owner.begin(), blk.owner.end());
+    tm.graded.insert(tm.graded.end(), blk.graded.begin(), blk.graded.end());
+    tm.transitionTets += blk.transition;
+    tm.bisectedTets += blk.bisected;
+    std::vector<TetMesh::Tet>().swap(blk.tets);
+  }
+  progress.checkCancel();
   const int64_t nt = int64_t(mesh.tets.size());
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < nt; ++t)
