@@ -1,5 +1,6 @@
 // Graded octree BCC background meshes (Algorithms/BackgroundMesh/OctreeBcc.h).
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <cstdio>
@@ -273,4 +274,24 @@ TEST(OctreeBcc, UniformInterfacesKeepGradedTetsOffTheInterfaces) {
     EXPECT_TRUE(evaluateQuality(c.mesh, QualityParams{}, np).valid);
   }
   EXPECT_GT(splits, 0); // the rule had work to do
+}
+
+TEST(OctreeBcc, SameMeshForAnyThreadCount) {
+  GridGeometry g;
+  g.dims = {40, 36, 30};
+  const Vec3 focus = g.indexToPhysical(5, 30, 2);
+  const ScalarVolume s = fieldOn(g, [&](const Vec3& p) { return float(0.5 + 0.1 * norm(p - focus)); });
+  NullProgress np;
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const OctreeBccResult a = generateOctreeBcc(g, s, OctreeBccParams{}, np);
+  omp_set_num_threads(2);
+  const OctreeBccResult b = generateOctreeBcc(g, s, OctreeBccParams{}, np);
+  omp_set_num_threads(saved);
+  int64_t leaves = 0;
+  for (int64_t c : a.stats.leavesPerLevel) leaves += c;
+  ASSERT_GT(leaves, 3 * 4096); // several blocks of 4096 leaves
+  EXPECT_EQ(a.background.mesh.tets, b.background.mesh.tets);
+  EXPECT_EQ(a.background.mesh.points, b.background.mesh.points);
+  EXPECT_EQ(a.graded, b.graded);
 }
