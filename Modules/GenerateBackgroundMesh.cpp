@@ -1,4 +1,5 @@
 // GenerateBackgroundMesh: the background tet mesh that cleaving deforms (seed §4.4).
+#include <algorithm>
 #include <sstream>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
@@ -15,6 +16,20 @@ void attachLatticeKind(BackgroundMesh& bg) {
   kind.values.reserve(bg.kind.size());
   for (auto k : bg.kind) kind.values.push_back(double(static_cast<int>(k)));
   bg.mesh.pointFields["lattice_kind"] = std::move(kind);
+}
+
+// Axis-aligned physical bounds of a grid's voxel cells.
+void physicalBounds(const GridGeometry& g, Vec3& lo, Vec3& hi) {
+  lo = {1e300, 1e300, 1e300};
+  hi = {-1e300, -1e300, -1e300};
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p = g.indexToPhysical((c & 1) ? double(g.dims[0]) - 0.5 : -0.5, (c & 2) ? double(g.dims[1]) - 0.5 : -0.5,
+                                     (c & 4) ? double(g.dims[2]) - 0.5 : -0.5);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
 }
 
 std::string triple(double a, double b, double c) {
@@ -45,7 +60,18 @@ public:
       p.padding = ctx.getDouble("padding");
       std::shared_ptr<const MaterialSet> mats;
       if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
-      OctreeBccResult o = generateOctreeBcc(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress(), mats.get());
+      const ScalarVolume& sizing = ctx.inputAs<ScalarVolumeData>(1).value;
+      {
+        Vec3 vlo, vhi, slo, shi;
+        physicalBounds(grid, vlo, vhi);
+        physicalBounds(sizing.grid, slo, shi);
+        bool overlap = true;
+        for (int a = 0; a < 3; ++a) overlap = overlap && slo[a] < vhi[a] && vlo[a] < shi[a];
+        if (!overlap)
+          ctx.log("the sizing field's grid does not overlap the volume: every cell takes the field's "
+                  "nearest edge value; compute the field from the same volume (ComputeSizingField)");
+      }
+      OctreeBccResult o = generateOctreeBcc(grid, sizing, p, ctx.progress(), mats.get());
       bg = std::move(o.background);
       r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
                               std::to_string(bg.cells[2]));
