@@ -22,8 +22,9 @@ public:
     if (r.interfaceSamples == 0)
       ctx.log("no material interface in the volume: the sizing field is uniform");
     else if (r.medialSamples == 0)
-      ctx.log("no medial samples found (no feature is 1.5 samples thick or more): the feature size "
-              "is the unbounded size; raise sampling_rate to resolve thin features");
+      ctx.log("no medial samples found (no interface bounds a layer, tube or body whose medial "
+              "surface the grid resolves): the feature size is the unbounded size; raise "
+              "sampling_rate if a feature should have been seen");
     ctx.setOutput(0, makeData<ScalarVolumeData>(std::move(r.field)));
   }
 };

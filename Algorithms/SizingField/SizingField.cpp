@@ -597,6 +597,54 @@ SizingFieldResult computeSizingField(const MaterialSet& materials, const SizingF
         all.insert(all.end(), b.begin(), b.end());
         std::vector<Candidate>().swap(b);
       }
+      // Layers one sample thick: a sample whose two 6-neighbours along an axis both belong to
+      // other materials is thin along that axis. It lies on its layer's medial surface (the
+      // divergence test above needs 1.5 samples of thickness) when the layer continues: at least
+      // two of its four neighbours across that axis have its material and are thin along it too
+      // (a sheet or a thin tube, not a one-sample bump on a voxelised surface). Such a sample
+      // keeps its own centre as medial point, at distance 0.
+      {
+        std::vector<uint8_t> thin(static_cast<size_t>(n), 0);
+#pragma omp parallel for schedule(static)
+        for (int64_t k = 0; k < nz; ++k)
+          for (int64_t j = 0; j < ny; ++j)
+            for (int64_t i = 0; i < nx; ++i) {
+              const int64_t x = k * stride[2] + j * stride[1] + i;
+              const int32_t l = label[static_cast<size_t>(x)];
+              const int64_t c[3] = {i, j, k};
+              uint8_t bits = 0;
+              for (int ax = 0; ax < 3; ++ax)
+                if (c[ax] > 0 && c[ax] + 1 < g.dims[ax] && label[static_cast<size_t>(x - stride[ax])] != l &&
+                    label[static_cast<size_t>(x + stride[ax])] != l)
+                  bits |= uint8_t(1 << ax);
+              thin[static_cast<size_t>(x)] = bits;
+            }
+        for (int64_t k = 0; k < nz; ++k)
+          for (int64_t j = 0; j < ny; ++j)
+            for (int64_t i = 0; i < nx; ++i) {
+              const int64_t x = k * stride[2] + j * stride[1] + i;
+              const uint8_t bits = thin[static_cast<size_t>(x)];
+              if (!bits) continue;
+              const int32_t l = label[static_cast<size_t>(x)];
+              const int64_t c[3] = {i, j, k};
+              bool sheet = false;
+              for (int ax = 0; ax < 3 && !sheet; ++ax) {
+                if (!(bits & (1 << ax))) continue;
+                int along = 0;
+                for (int o = 1; o <= 2; ++o) {
+                  const int b2 = (ax + o) % 3;
+                  for (int dir = -1; dir <= 1; dir += 2) {
+                    const int64_t cn = c[b2] + dir;
+                    if (cn < 0 || cn >= g.dims[b2]) continue;
+                    const int64_t nb = x + dir * stride[b2];
+                    if (label[static_cast<size_t>(nb)] == l && (thin[static_cast<size_t>(nb)] & (1 << ax))) ++along;
+                  }
+                }
+                sheet = along >= 2;
+              }
+              if (sheet) all.push_back({x, 0.0, Vec3{double(i) * h[0], double(j) * h[1], double(k) * h[2]}});
+            }
+      }
       // One medial point per sample: the nearest to it (ties: the first found, stable order).
       std::stable_sort(all.begin(), all.end(), byOwner);
       for (size_t c = 0; c < all.size(); ++c) {

@@ -60,8 +60,11 @@
 //                and 120-degree triple junctions (60) do not count, wedges sharper than 60
 //                degrees do, and there the feature size falls towards the floor below at the
 //                edge. Criterion (1) needs the closest points to differ by 1.5 sample spacings,
-//                so a layer thinner than about 1.5 samples has no medial samples of its own
-//                (raise sampling_rate to resolve it).
+//                so it misses layers thinner than about 1.5 samples; for those, a sample whose
+//                two 6-neighbours along an axis both have other materials, and at least two of
+//                whose four neighbours across that axis are such samples of its material (a
+//                sheet or a tube one sample thick, not a one-sample bump of a voxelised
+//                surface), keeps its own centre as medial point.
 //   feature size the local feature size at an interface sample s is the distance from its
 //                interface point to the nearest medial point (a second exact feature transform,
 //                seeds = medial samples, then the distance to the medial point that sample keeps),

@@ -310,17 +310,18 @@ TEST(SizingField, SlabFeatureSizeIsHalfTheThickness) {
   }
 }
 
-TEST(SizingField, ThinLayersNeedOneAndAHalfSamples) {
-  // A layer 1 mm thick: one sample thick at sampling_rate 1, so it has no medial samples of its
-  // own (documented) and the field is the unbounded size; at rate 2 it is two samples thick and
-  // its feature size is half its thickness.
+TEST(SizingField, LayersOneSampleThickGetHalfASample) {
+  // A layer 1 mm thick is one sample thick at sampling_rate 1: the divergence test cannot see its
+  // medial surface, the one-sample rule does (its samples are medial), so the feature size is half
+  // its thickness, as at rate 2 where the layer is two samples thick.
   GridGeometry g;
   g.dims = {8, 8, 20};
   const IndicatorMaterials m = twoMaterials(g, [](const Vec3& p) { return 0.5 - std::abs(p[2] - 10.0); });
   const SizingFieldResult coarse = run(m);
   EXPECT_EQ(coarse.interfaceSamples, 3 * 64);
-  EXPECT_EQ(coarse.medialSamples, 0);
-  EXPECT_DOUBLE_EQ(coarse.minSize, 20.0); // the longest side of the box
+  EXPECT_EQ(coarse.medialSamples, 64); // the layer itself
+  EXPECT_NEAR(coarse.minFeatureSize, 0.5, 1e-3);
+  EXPECT_NEAR(coarse.maxFeatureSize, 0.5, 1e-3);
   SizingFieldParams p;
   p.sampling_rate = 2.0;
   const SizingFieldResult fine = run(m, p);
@@ -329,6 +330,12 @@ TEST(SizingField, ThinLayersNeedOneAndAHalfSamples) {
   EXPECT_GT(fine.medialSamples, 0);
   EXPECT_NEAR(fine.minFeatureSize, 0.5, 1e-3);
   EXPECT_NEAR(fine.maxFeatureSize, 0.5, 1e-3);
+  // A layer two samples thick is left to the divergence test (no sample has other materials on
+  // both sides): still half its thickness.
+  const IndicatorMaterials two = twoMaterials(g, [](const Vec3& p) { return 1.0 - std::abs(p[2] - 10.5); });
+  const SizingFieldResult r2 = run(two);
+  EXPECT_NEAR(r2.minFeatureSize, 1.0, 0.02);
+  EXPECT_NEAR(r2.maxFeatureSize, 1.0, 0.02);
 }
 
 TEST(SizingField, GapBetweenTwoSpheresSetsTheFeatureSize) {
@@ -662,4 +669,26 @@ TEST(SizingField, BadParametersNameTheParameter) {
   SizingFieldParams eq;
   eq.min_size = eq.max_size = 3.0;
   for (float s : computeSizingField(m, eq, np).field.data) ASSERT_EQ(s, 3.0f);
+}
+
+TEST(SizingField, OneSampleBumpsAreNotThinLayersButThinTubesAre) {
+  // A flat interface with a one-voxel bump: the bump is thin across two axes but does not continue,
+  // so it adds no medial sample and the field over the surface stays the unbounded size.
+  const auto bump = labels({16, 16, 20}, {1, 1, 1}, [](int64_t i, int64_t j, int64_t k) {
+    return (k < 10 || (i == 8 && j == 8 && k == 10)) ? 1 : 0;
+  });
+  const SizingFieldResult rb = runLabels(bump);
+  EXPECT_EQ(rb.medialSamples, 0);
+  EXPECT_DOUBLE_EQ(rb.minSize, 20.0);
+  // A tube one sample thick along x (indicator functions: a label volume's blend would dissolve a
+  // one-voxel tube into its surroundings): every tube sample is medial, the feature size is half a
+  // sample.
+  GridGeometry g;
+  g.dims = {16, 12, 12};
+  const IndicatorMaterials tube = twoMaterials(g, [](const Vec3& p) {
+    return 0.5 - std::max(std::abs(p[1] - 6.0), std::abs(p[2] - 6.0));
+  });
+  const SizingFieldResult rt = run(tube);
+  EXPECT_GE(rt.medialSamples, 14);
+  EXPECT_NEAR(rt.minFeatureSize, 0.5, 1e-3);
 }
