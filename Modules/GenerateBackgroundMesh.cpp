@@ -108,28 +108,14 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "gives the box to cover"},
               {"sizing", {PortType::ScalarVolume}, "element size field in mm (ComputeSizingField); needed by octree_bcc", true}};
   m.outputs = {{"mesh", {PortType::TetMesh}, "background tet mesh"}};
-  ParamSpec kind;
-  kind.name = "kind";
-  kind.type = ParamType::Enum;
-  kind.defaultValue = std::string("regular_bcc");
+  ParamSpec kind = makeParam("kind", ParamType::Enum, std::string("regular_bcc"), "", "lattice type");
   kind.choices = {"regular_bcc", "octree_bcc"};
-  kind.description = "lattice type";
-  ParamSpec cs;
-  cs.name = "cell_size";
-  cs.type = ParamType::Double;
-  cs.defaultValue = 4.0;
-  cs.min = 1e-6;
-  cs.unit = "mm";
-  cs.description = "regular_bcc: edge of a lattice cell (rounded per axis so cells tile the box exactly)";
-  ParamSpec pad;
-  pad.name = "padding";
-  pad.type = ParamType::Double;
-  pad.defaultValue = 0.0;
-  pad.min = 0.0;
-  pad.unit = "mm";
-  pad.description = "margin added around the volume's box on every side";
+  ParamSpec cs = doubleParam("cell_size", 4.0, 1e-6, std::nullopt, "mm",
+                             "regular_bcc: edge of a lattice cell (rounded per axis so cells tile the box exactly)");
+  ParamSpec pad = doubleParam("padding", 0.0, 0.0, std::nullopt, "mm",
+                              "margin added around the volume's box on every side");
   ParamSpec minc = doubleParam("min_cell_size", 0.0, 0.0, std::nullopt, "mm",
-                               "octree_bcc: smallest leaf edge; 0 = the sizing field's minimum");
+                               "octree_bcc: leaves stop splitting at this edge (the finest lie between half of it and it); 0 = the sizing field's minimum");
   ParamSpec maxc = doubleParam("max_cell_size", 0.0, 0.0, std::nullopt, "mm",
                                "octree_bcc: root cell edge; 0 = the sizing field's maximum");
   ParamSpec uni = makeParam("uniform_interfaces", ParamType::Bool, false, "",

@@ -25,6 +25,21 @@ std::array<int64_t, 3> keyIndex(uint64_t key) {
   const uint64_t m = (uint64_t(1) << 20) - 1;
   return {int64_t(key & m), int64_t((key >> 20) & m), int64_t((key >> 40) & m)};
 }
+// Child q (bits: x, y, z) of a cell.
+uint64_t childKey(uint64_t key, int q) {
+  const int l = keyLevel(key);
+  const auto idx = keyIndex(key);
+  return leafKey(l + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1));
+}
+// The finest cell just outside a leaf (index idx, s finest cells per edge) in direction
+// d = 0..26 (offsets -1/0/+1 per axis, x fastest; 13 is the leaf itself).
+std::array<int64_t, 3> neighbourProbe(const std::array<int64_t, 3>& idx, int64_t s, int d) {
+  const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
+  std::array<int64_t, 3> f;
+  for (int a = 0; a < 3; ++a)
+    f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * s - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s;
+  return f;
+}
 // Vertex key: half-finest-cell coordinates (21 bits per axis).
 uint64_t vertexKey(int64_t x, int64_t y, int64_t z) { return uint64_t(z) << 42 | uint64_t(y) << 21 | uint64_t(x); }
 
@@ -81,10 +96,8 @@ int SizingOctree::levelAt(const std::array<int64_t, 3>& f) const {
 
 void SizingOctree::split(uint64_t key, std::vector<uint64_t>* touched) {
   leafSet.erase(key);
-  const int l = keyLevel(key);
-  const auto idx = keyIndex(key);
   for (int q = 0; q < 8; ++q) {
-    const uint64_t child = leafKey(l + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1));
+    const uint64_t child = childKey(key, q);
     leafSet.insert(child);
     if (touched) touched->push_back(child);
   }
@@ -103,10 +116,7 @@ int64_t SizingOctree::balance(std::vector<uint64_t> queue) {
     const int64_t s = int64_t(1) << (L - l);
     for (int d = 0; d < 27; ++d) {
       if (d == 13) continue;
-      std::array<int64_t, 3> f;
-      const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
-      for (int a = 0; a < 3; ++a)
-        f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * s - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s;
+      const std::array<int64_t, 3> f = neighbourProbe(idx, s, d);
       for (int m = levelAt(f); m >= 0 && m < l - 1; m = levelAt(f)) {
         const int sh = L - m;
         split(leafKey(m, f[0] >> sh, f[1] >> sh, f[2] >> sh), &queue);
@@ -216,14 +226,15 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
         << "; raise min_cell_size or max_cell_size";
       throw InputError(m.str());
     }
-  st.rootCellSize = rootLongest;
+  SizingOctree tree;
+  tree.finestLevel = L;
+  tree.roots = {n[0], n[1], n[2]};
+  tree.lo = lo;
+  tree.boxLength = len;
+  tree.rootSize = h;
   const SizingOracle oracle(sizing);
-  auto toPhysical = [&](const Vec3& l) { return grid.origin + mul(grid.direction, l); };
-  // Physical point of half-finest-cell coordinates.
-  const double fine = double(int64_t(1) << L);
   auto halfToPhysical = [&](int64_t x, int64_t y, int64_t z) {
-    return toPhysical({lo[0] + double(x) * h[0] / (2 * fine), lo[1] + double(y) * h[1] / (2 * fine),
-                       lo[2] + double(z) * h[2] / (2 * fine)});
+    return grid.origin + mul(grid.direction, tree.halfToLocal(x, y, z));
   };
 
   if (n[0] * n[1] * n[2] * 24 > kMaxTets) {
@@ -271,21 +282,13 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
         leaves.insert(current[c]);
         continue;
       }
-      const auto idx = keyIndex(current[c]);
-      for (int q = 0; q < 8; ++q)
-        next.push_back(leafKey(level + 1, 2 * idx[0] + (q & 1), 2 * idx[1] + ((q >> 1) & 1), 2 * idx[2] + ((q >> 2) & 1)));
+      for (int q = 0; q < 8; ++q) next.push_back(childKey(current[c], q));
     }
     current.swap(next);
     progress.checkCancel();
   }
 
   // 2. Balance: leaves touching by a face, edge or corner differ by at most one level.
-  SizingOctree tree;
-  tree.finestLevel = L;
-  tree.roots = {n[0], n[1], n[2]};
-  tree.lo = lo;
-  tree.boxLength = len;
-  tree.rootSize = h;
   tree.leafSet = std::move(leaves);
   std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
   std::sort(all.begin(), all.end());
@@ -313,7 +316,6 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   BackgroundMesh& bg = tm.bg;
   const int L = tree.finestLevel;
   const std::vector<uint64_t>& sorted = tree.leaves;
-  auto leafLevelAt = [&](const std::array<int64_t, 3>& f) { return tree.levelAt(f); };
   auto halfToPhysical = [&](int64_t x, int64_t y, int64_t z) {
     return grid.origin + mul(grid.direction, tree.halfToLocal(x, y, z));
   };
@@ -393,7 +395,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
       const bool plus = face % 2 == 1;
       std::array<int64_t, 3> probe{idx[0] * s, idx[1] * s, idx[2] * s};
       probe[size_t(a)] = plus ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s - 1;
-      const int m = leafLevelAt(probe);
+      const int m = tree.levelAt(probe);
       int32_t other;
       int32_t otherLeaf = -1;
       bool onBox = false;
@@ -555,10 +557,7 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
           const int64_t sz = int64_t(1) << (L - l);
           for (int d = 0; d < 27; ++d) {
             if (d == 13) continue;
-            const int dd[3] = {d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
-            std::array<int64_t, 3> f;
-            for (int a = 0; a < 3; ++a)
-              f[size_t(a)] = dd[a] < 0 ? idx[size_t(a)] * sz - 1 : dd[a] > 0 ? (idx[size_t(a)] + 1) * sz : idx[size_t(a)] * sz;
+            const std::array<int64_t, 3> f = neighbourProbe(idx, sz, d);
             if (tree.levelAt(f) != l) continue;
             const int sh = L - l;
             const uint64_t nb = leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh);

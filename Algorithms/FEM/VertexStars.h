@@ -57,15 +57,10 @@ void forEachVertexStar(const TetMesh& mesh, const std::vector<int32_t>& degree, 
   list.reserve(size_t(largestCorners));
   for (size_t bi = 0; bi + 1 < bounds.size(); ++bi) {
     const int64_t lo = bounds[bi], hi = bounds[bi + 1];
-    const int64_t corners = [&] {
-      int64_t c = 0;
-      for (int64_t v = lo; v < hi; ++v) c += degree[size_t(v)];
-      return c;
-    }();
     offsets.assign(size_t(hi - lo + 1), 0);
     for (int64_t v = lo; v < hi; ++v) offsets[size_t(v - lo + 1)] = offsets[size_t(v - lo)] + degree[size_t(v)];
     cursor.assign(offsets.begin(), offsets.end() - 1);
-    list.resize(size_t(corners));
+    list.resize(size_t(offsets.back()));
 #pragma omp parallel for schedule(static)
     for (int64_t t = 0; t < nt; ++t)
       for (int32_t v : mesh.tets[size_t(t)])
