@@ -94,7 +94,7 @@ void compare(std::ostringstream& out, const MaterialSet& mats, bool stripZero, c
 
 int main(int argc, char** argv) {
   const std::string results = argc > 1 ? argv[1] : "adaptive_results.txt";
-  const std::string spheresDir = argc > 2 ? argv[2] : TETFLOW_SHARED_DATA_DIR;
+  const std::string spheresDir = argc > 2 ? argv[2] : TETFLOW_TEST_DATA;
   std::ostringstream out;
   out << "# adaptive_benchmark on " << std::thread::hardware_concurrency() << " hardware threads (OpenMP "
       << omp_get_max_threads() << "); seconds of the sizing field, the background and the cleave\n";

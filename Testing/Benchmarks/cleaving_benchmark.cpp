@@ -41,7 +41,7 @@ double now() {
 
 int main(int argc, char** argv) {
   const std::string results = argc > 1 ? argv[1] : "cleaving_results.txt";
-  const std::string spheres = argc > 2 ? argv[2] : std::string(TETFLOW_SHARED_DATA_DIR);
+  const std::string spheres = argc > 2 ? argv[2] : std::string(TETFLOW_TEST_DATA);
   std::ostringstream out;
   out << "# cleaving_benchmark on " << std::thread::hardware_concurrency() << " hardware threads (OpenMP "
       << omp_get_max_threads() << ")\n";

@@ -96,7 +96,7 @@ TEST(Cli, BadSetValuesAndLoadErrorsExitThree) {
   r = run("run " + tmp.file("missing.srn"));
   EXPECT_EQ(r.code, 3);
   EXPECT_NE(r.out.find("missing.srn: file not found"), std::string::npos) << r.out;
-  const std::string scirun = std::string(TETFLOW_SHARED_DIR) + "/reference/scirun4-example.srn";
+  const std::string scirun = std::string(TETFLOW_TEST_DATA) + "/scirun4-example.srn";
   r = run("validate " + scirun);
   EXPECT_EQ(r.code, 3);
   EXPECT_NE(r.out.find("module m19: unknown module 'ViewScene' (package SCIRun)"), std::string::npos) << r.out;

@@ -25,7 +25,7 @@ struct SizingPipeline {
       std::string files;
       for (int i = 1; i <= 4; ++i) {
         if (i > 1) files += ';';
-        files += std::string(TETFLOW_SHARED_DIR) + "/data/spheres" + std::to_string(i) + ".nrrd";
+        files += std::string(TETFLOW_TEST_DATA) + "/spheres" + std::to_string(i) + ".nrrd";
       }
       net.setParameterText("in", "filenames", files);
     } else {

@@ -127,7 +127,7 @@ TEST_F(SrnFixture, MalformedXmlNamesTheLine) {
 }
 
 TEST_F(SrnFixture, TheRealSCIRunExampleListsAllItsUnknownModules) {
-  const std::string path = std::string(TETFLOW_SHARED_DIR) + "/reference/scirun4-example.srn";
+  const std::string path = std::string(TETFLOW_TEST_DATA) + "/scirun4-example.srn";
   try {
     loadNetwork(path, reg);
     FAIL() << "SCIRun's modules are not TetFlow's";

@@ -303,7 +303,7 @@ TEST(Cleaver, StripExteriorRemovesTheBackground) {
 TEST(Cleaver, SpheresIndicatorFunctions) {
   std::vector<ScalarVolume> v;
   for (int i = 1; i <= 4; ++i)
-    v.push_back(readScalarVolume(std::string(TETFLOW_SHARED_DATA) + "/spheres" + std::to_string(i) + ".nrrd"));
+    v.push_back(readScalarVolume(std::string(TETFLOW_TEST_DATA) + "/spheres" + std::to_string(i) + ".nrrd"));
   IndicatorMaterials mats(std::move(v));
   NullProgress np;
   for (double cell : {1.0, 2.0}) {

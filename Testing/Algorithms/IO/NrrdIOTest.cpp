@@ -554,7 +554,7 @@ TEST(NrrdIO, IgnoresCommentsKeyValuesAndUnusedFields) {
 }
 
 TEST(NrrdIO, ReadsTheSharedSpheres) {
-  const std::string path = std::string(TETFLOW_SHARED_DATA) + "/spheres1.nrrd";
+  const std::string path = std::string(TETFLOW_TEST_DATA) + "/spheres1.nrrd";
   if (!fs::exists(path)) GTEST_SKIP() << path << " is not present";
   const RawVolume v = readNrrd(path);
   EXPECT_EQ(v.type, VoxelType::Float32);

@@ -583,7 +583,7 @@ TEST(SizingField, FlatInterfacesHaveNoMedialSamples) {
 TEST(SizingField, CleaverSpheresIndicatorFunctions) {
   std::vector<ScalarVolume> vols;
   for (int i = 1; i <= 4; ++i)
-    vols.push_back(readScalarVolume(std::string(TETFLOW_SHARED_DATA) + "/spheres" + std::to_string(i) + ".nrrd"));
+    vols.push_back(readScalarVolume(std::string(TETFLOW_TEST_DATA) + "/spheres" + std::to_string(i) + ".nrrd"));
   const IndicatorMaterials m(std::move(vols));
   SizingFieldParams p;
   const SizingFieldResult r = run(m, p);
