@@ -5,6 +5,8 @@
 //   tetflow validate NET.srn [--set ...]
 //   tetflow list-modules
 //   tetflow describe MODULE
+//   tetflow certify MESH LABELS [--max-volume-error PCT] [--require-components]
+//                   [--forbid-spurious-contacts] [--strict] [--output MESH] [--report out.json]
 //
 // Exit status: 0 all modules succeeded; 1 a module failed (downstream ones skipped); 2 bad
 // command-line arguments; 3 the network file cannot be loaded or a --set is invalid for it;
@@ -14,6 +16,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <mutex>
 #include <string>
@@ -48,12 +51,19 @@ const char* kUsage =
     "  tetflow validate NET.srn [--set]  load and check a network without running it\n"
     "  tetflow list-modules              list the available modules\n"
     "  tetflow describe MODULE           ports and parameters of a module\n"
+    "  tetflow certify MESH LABELS [opts] compare a mesh with its label volume (the certificate)\n"
     "options for run:\n"
     "  --set ID.PARAM=VALUE   override a parameter (repeatable), e.g. --set m3.alpha_long=0.25\n"
     "  --report FILE.json     write every module's report, timings and errors as JSON\n"
     "  --output-dir DIR       write relative output files under DIR (created if missing)\n"
     "  --threads N            worker threads and threads per module (default: all cores)\n"
     "  --quiet                print only errors\n"
+    "options for certify (also --report, --threads, --quiet):\n"
+    "  --max-volume-error PCT fail when a label's |volume error| exceeds PCT percent\n"
+    "  --require-components   fail on a lost, split, merged or spurious component\n"
+    "  --forbid-spurious-contacts  fail when labels touch in the mesh but not in the image\n"
+    "  --strict               all three (volume error 3 % unless given)\n"
+    "  --output MESH          write the mesh with the certificate_flags cell field\n"
     "exit status: 0 success, 1 module failed, 2 bad arguments, 3 network cannot be loaded,\n"
     "             4 report cannot be written, 130 cancelled\n";
 
@@ -148,9 +158,10 @@ std::string summaryLine(const ModuleNode& m, const ModuleState& s) {
   return line;
 }
 
-int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
-  std::unique_ptr<Network> net;
-  if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
+// Runs a loaded network with the runner's printing, Ctrl-C handling, report and exit codes.
+// `after` (optional) sees the executor once the run is over, before the report is written.
+int runNetwork(Network* net, const RunArgs& args,
+               const std::function<void(const Executor&)>& after = {}) {
   if (!args.outputDir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(args.outputDir, ec);
@@ -212,6 +223,7 @@ int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
   done = true;
   watcher.join();
   std::signal(SIGINT, SIG_DFL);
+  if (after) after(exec);
 
   if (!args.quiet) {
     std::printf("%s: %d ran, %d reused, %d failed, %d skipped, %d cancelled in %.3f s\n",
@@ -233,6 +245,119 @@ int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
     return kExitCancelled;
   }
   return sum.success ? 0 : kExitModuleFailed;
+}
+
+int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
+  std::unique_ptr<Network> net;
+  if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
+  return runNetwork(net.get(), args);
+}
+
+// tetflow certify MESH LABELS: ReadMesh + ReadLabelVolume -> EvaluateQuality (-> WriteMesh), run
+// like a network, then the certificate's figures printed as a table.
+int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
+  RunArgs r;
+  std::vector<std::string> files;
+  std::string output, maxErr = "0";
+  bool requireComponents = false, forbidContacts = false;
+  for (size_t i = 1; i < a.size(); ++i) {
+    const std::string& s = a[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= a.size()) throw std::invalid_argument(s + " needs a value");
+      return a[++i];
+    };
+    try {
+      if (s == "--report") r.report = value();
+      else if (s == "--output") output = value();
+      else if (s == "--max-volume-error") maxErr = value();
+      else if (s == "--require-components") requireComponents = true;
+      else if (s == "--forbid-spurious-contacts") forbidContacts = true;
+      else if (s == "--strict") {
+        requireComponents = forbidContacts = true;
+        if (maxErr == "0") maxErr = "3";
+      } else if (s == "--quiet") r.quiet = true;
+      else if (s == "--threads") {
+        const std::string v = value();
+        size_t used = 0;
+        int n = -1;
+        try { n = std::stoi(v, &used); } catch (...) {}
+        if (used != v.size() || n < 1 || n > 1024) return usageError("--threads '" + v + "' must be a whole number from 1 to 1024");
+        r.threads = n;
+      } else if (!s.empty() && s[0] == '-') return usageError("unknown option '" + s + "' for certify");
+      else files.push_back(s);
+    } catch (const std::invalid_argument& e) {
+      return usageError(e.what());
+    }
+  }
+  if (files.size() != 2) return usageError("certify takes a mesh file and a label volume file");
+  for (const auto& f : files)
+    if (!std::filesystem::exists(f)) {
+      std::cerr << "tetflow: " << f << ": file not found\n";
+      return kExitLoad;
+    }
+  Network net(reg);
+  const auto abs = [](const std::string& f) { return std::filesystem::absolute(f).string(); };
+  try {
+    net.addModule("ReadMesh", "mesh");
+    net.setParameterText("mesh", "filename", abs(files[0]));
+    net.addModule("ReadLabelVolume", "labels");
+    net.setParameterText("labels", "filename", abs(files[1]));
+    net.addModule("EvaluateQuality", "certificate");
+    net.setParameterText("certificate", "max_volume_error", maxErr);
+    net.setParameterText("certificate", "require_components", requireComponents ? "true" : "false");
+    net.setParameterText("certificate", "forbid_spurious_contacts", forbidContacts ? "true" : "false");
+    net.connect("mesh", 0, "certificate", 0);
+    net.connect("labels", 0, "certificate", 1);
+    if (!output.empty()) {
+      net.addModule("WriteMesh", "output");
+      net.setParameterText("output", "filename", abs(output));
+      net.connect("certificate", 0, "output", 0);
+    }
+  } catch (const InputError& e) {
+    std::cerr << "tetflow: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  r.net = "certify";
+  return runNetwork(&net, r, [&](const Executor& exec) {
+    const ModuleState* s = exec.state("certificate");
+    if (!s || r.quiet || !s->report.has("cert_rule")) return;
+    const Report& rep = s->report;
+    auto text = [&](const std::string& k) {
+      const ReportValue* v = rep.find(k);
+      return v ? formatReportValue(*v) : std::string("-");
+    };
+    std::printf("certificate: %s\n", text("cert_rule").c_str());
+    std::printf("%8s %14s %14s %9s %7s %7s %7s %9s\n", "label", "voxels mm^3", "mesh mm^3", "error %",
+                "image", "robust", "mesh", "agree %");
+    for (const auto& [k, v] : rep.entries()) {
+      const std::string pre = "cert_label_", suf = "_voxel_volume_mm3";
+      if (k.rfind(pre, 0) != 0 || k.size() <= suf.size() || k.compare(k.size() - suf.size(), suf.size(), suf) != 0)
+        continue;
+      const std::string L = k.substr(pre.size(), k.size() - pre.size() - suf.size());
+      const std::string b = pre + L + "_";
+      std::printf("%8s %14.6g %14.6g %+9.2f %7s %7s %7s %9.2f\n", L.c_str(), rep.number(b + "voxel_volume_mm3"),
+                  rep.number(b + "mesh_volume_mm3"), 100.0 * rep.number(b + "volume_rel_error"),
+                  text(b + "image_components").c_str(), text(b + "robust_components").c_str(),
+                  text(b + "mesh_components").c_str(), 100.0 * rep.number(b + "voxel_agreement"));
+    }
+    std::printf("excluded labels: %s; components lost %s, lost_small %s, split %s, merged %s, spurious %s; "
+                "spurious contacts %s (%s mm^2), missing %s; non-manifold edges %s, vertices %s\n",
+                text("cert_excluded_labels").c_str(), text("cert_components_lost").c_str(),
+                text("cert_components_lost_small").c_str(), text("cert_components_split").c_str(),
+                text("cert_components_merged").c_str(), text("cert_components_spurious").c_str(),
+                text("cert_spurious_contacts").c_str(), text("cert_spurious_contact_area_mm2").c_str(),
+                text("cert_missing_contacts").c_str(), text("cert_nonmanifold_edges").c_str(),
+                text("cert_nonmanifold_vertices").c_str());
+    auto listed = [](const std::string& k) {
+      auto numbered = [&](const std::string& pre) {
+        return k.rfind(pre, 0) == 0 && k.size() > pre.size() &&
+               k.find_first_not_of("0123456789", pre.size()) == std::string::npos;
+      };
+      return numbered("cert_issue_") || numbered("cert_spurious_contact_") || numbered("cert_missing_contact_");
+    };
+    for (const auto& [k, v] : rep.entries())
+      if (listed(k)) std::printf("  %s\n", formatReportValue(v).c_str());
+  });
 }
 
 int cmdValidate(const RunArgs& args, const ModuleRegistry& reg) {
@@ -320,6 +445,7 @@ int main(int argc, char** argv) {
       if (auto err = parseRunArgs(a, 1, r, true); !err.empty()) return usageError(err);
       return cmdRun(r, reg);
     }
+    if (cmd == "certify") return cmdCertify(a, reg);
     if (cmd == "validate") {
       RunArgs r;
       if (auto err = parseRunArgs(a, 1, r, false); !err.empty()) return usageError(err);

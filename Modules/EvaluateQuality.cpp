@@ -1,6 +1,9 @@
-// EvaluateQuality: element quality, validity and per-material volumes of a tetrahedral mesh.
+// EvaluateQuality: element quality, validity and per-material volumes of a tetrahedral mesh, and,
+// with the label volume connected, the mesh certificate (Algorithms/Quality/Certificate.h).
 // Inputs: 0 mesh (TetMesh), 1 reference (LabelVolume, optional: reference volume per label =
-// voxel count x voxel volume). Outputs: 0 mesh with the quality cell fields added, 1 Report.
+// voxel count x voxel volume, and the image the certificate compares with). Outputs: 0 mesh with
+// the quality cell fields (and certificate_flags) added, 1 Report.
+#include "Algorithms/Quality/Certificate.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "StandardModules.h"
 
@@ -23,12 +26,46 @@ public:
 
     Report report;
     writeQualityReport(result, report);
-    for (const auto& [key, value] : report.entries()) ctx.report().set(key, value);
     if (!result.valid) ctx.log("the mesh is not valid (see inverted, zero_volume, duplicate_tets, "
                                "nonmanifold_faces)");
 
     TetMesh out = in;
     for (auto& [name, field] : result.cellFields) out.cellFields[name] = std::move(field);
+
+    CertificateThresholds th;
+    th.maxVolumeError = ctx.getDouble("max_volume_error") / 100.0;
+    th.requireComponents = ctx.getBool("require_components");
+    th.forbidSpuriousContacts = ctx.getBool("forbid_spurious_contacts");
+    const bool wantCertificate = ctx.getBool("certificate");
+    const bool thresholds = th.maxVolumeError > 0 || th.requireComponents || th.forbidSpuriousContacts;
+    std::vector<std::string> failures;
+    if (ctx.hasInput(1) && wantCertificate) {
+      const LabelVolume& ref = ctx.inputAs<LabelVolumeData>(1).value;
+      CertificateResult cert = certifyMesh(in, ref, ctx.progress());
+      writeCertificateReport(cert, report);
+      failures = certificateFailures(cert, th);
+      report.set("cert_passed", ReportValue(failures.empty()));
+      Field flags;
+      flags.values.assign(cert.flags.begin(), cert.flags.end());
+      out.cellFields["certificate_flags"] = std::move(flags);
+      for (const auto& is : cert.componentIssues)
+        if (is.kind == ComponentIssueKind::LostSmall) {
+          ctx.log(std::to_string(cert.lostSmall) + " image component(s) without a core voxel have no "
+                  "mesh counterpart (listed as lost_small in the report)");
+          break;
+        }
+    } else if (thresholds) {
+      throw InputError(std::string("the certificate thresholds (max_volume_error, require_components, "
+                                   "forbid_spurious_contacts) need ") +
+                       (wantCertificate ? "the label volume on input port 1 (reference)"
+                                        : "parameter certificate = true"));
+    }
+    for (const auto& [key, value] : report.entries()) ctx.report().set(key, value);
+    if (!failures.empty()) {
+      std::string msg = "the mesh fails its certificate: ";
+      for (size_t i = 0; i < failures.size(); ++i) msg += (i ? "; " : "") + failures[i];
+      throw ProcessingError(msg);
+    }
     ctx.setOutput(0, makeData<TetMeshData>(std::move(out)));
     ctx.setOutput(1, makeData<ReportData>(std::move(report)));
   }
@@ -44,8 +81,13 @@ void registerEvaluateQuality(ModuleRegistry& r) {
       "aspect ratio (shortest altitude / longest edge) and radius ratio (3 r_in / R_circ), "
       "validity (inverted, zero-volume and duplicate tets, faces shared by more than two tets, "
       "closed boundary), total and per-material volume. With a reference label volume connected, "
-      "each material's volume is compared with its voxel count x voxel volume. The output mesh "
-      "carries the cell fields min_dihedral, max_dihedral, aspect_ratio, radius_ratio, volume.";
+      "each material's volume is compared with its voxel count x voxel volume, and the mesh "
+      "certificate compares the mesh with the image label by label: volume error, connected "
+      "components (lost, split, merged, spurious), label contacts (spurious, missing) and "
+      "non-manifold interfaces; thresholds make the module fail. The output mesh carries the cell "
+      "fields min_dihedral, max_dihedral, aspect_ratio, radius_ratio, volume and, with the "
+      "certificate, certificate_flags (bits: 1 spurious, 2 split piece, 4 merging, 8 in a lost "
+      "component, 16 spurious contact, 32 non-manifold interface).";
   PortSpec reference{"reference", {PortType::LabelVolume},
                      "optional label volume giving reference volumes per label", true};
   m.inputs = {{"mesh", {PortType::TetMesh}, "mesh to evaluate"}, reference};
@@ -59,8 +101,19 @@ void registerEvaluateQuality(ModuleRegistry& r) {
   bin.max = 90.0;
   bin.unit = "deg";
   bin.description = "bin width of the histogram of per-tet minimum dihedral angles (0..180 deg)";
-  m.params = {bin};
-  m.summaryKeys = {"tets", "min_dihedral_deg", "max_dihedral_deg", "valid"};
+  m.params = {
+      bin,
+      makeParam("certificate", ParamType::Bool, true, "",
+                "compare the mesh with the label volume on port 1 (reference): volumes, components, "
+                "contacts, interfaces"),
+      doubleParam("max_volume_error", 0.0, 0.0, 1000.0, "%",
+                  "fail when a label's |volume error| against its voxels exceeds this (0 = no check)"),
+      makeParam("require_components", ParamType::Bool, false, "",
+                "fail when a robust image component is lost, split or merged, or a spurious mesh "
+                "component exists"),
+      makeParam("forbid_spurious_contacts", ParamType::Bool, false, "",
+                "fail when two labels touch in the mesh but not in the image")};
+  m.summaryKeys = {"tets", "min_dihedral_deg", "max_dihedral_deg", "valid", "cert_passed"};
   m.factory = [] { return std::make_unique<EvaluateQuality>(); };
   r.add(std::move(m));
 }

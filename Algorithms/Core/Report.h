@@ -4,6 +4,7 @@
 // Values are typed so reports serialise faithfully (JSON) and print with sensible precision.
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -15,7 +16,15 @@ using ReportValue = std::variant<bool, int64_t, double, std::string>;
 class Report {
 public:
   void set(const std::string& key, ReportValue value);
-  void set(const std::string& key, int value) { set(key, ReportValue(int64_t(value))); }
+  // Numbers keep their kind: integers (and bool) as such, floating point as double. (An `int`
+  // overload alone would silently truncate a double argument.)
+  template <class T>
+    requires std::is_arithmetic_v<T>
+  void set(const std::string& key, T value) {
+    if constexpr (std::is_same_v<T, bool>) set(key, ReportValue(value));
+    else if constexpr (std::is_integral_v<T>) set(key, ReportValue(int64_t(value)));
+    else set(key, ReportValue(double(value)));
+  }
   void set(const std::string& key, const char* value) { set(key, ReportValue(std::string(value))); }
   bool has(const std::string& key) const { return find(key) != nullptr; }
   const ReportValue* find(const std::string& key) const;

@@ -94,3 +94,43 @@ TEST(CleaveMeshModule, OctreeBackgroundFromASizingField) {
   ASSERT_EQ(msgs.size(), 1u);
   EXPECT_NE(msgs[0].find("ignores the sizing field"), std::string::npos) << msgs[0];
 }
+
+TEST(CleaveMeshModule, CertificateListsTheLostBlobAndItsThresholdsFailTheModule) {
+  test::TempDir dir;
+  Pipeline p("blob", 6.0);
+  p.net.setParameterText("p", "radius", "6");
+  p.net.setParameterText("cl", "strip_exterior", "0");
+  p.net.addModule("WriteMesh", "w");
+  p.net.setParameterText("w", "filename", dir.file("blob.vtu"));
+  p.net.connect("q", 0, "w", 0);
+  ASSERT_TRUE(p.exec.execute(p.net).success) << p.exec.state("q")->error;
+  const Report& rep = p.report("q");
+  EXPECT_EQ(std::get<std::string>(*rep.find("cert_excluded_labels")), "0");
+  EXPECT_EQ(rep.number("cert_components_lost"), 1);
+  EXPECT_TRUE(std::get<bool>(*rep.find("cert_passed"))); // no threshold set
+  EXPECT_NE(std::get<std::string>(*rep.find("cert_issue_1")).find("lost: label 2, image component of 7 voxels"),
+            std::string::npos);
+  const auto* mesh = dynamic_cast<const TetMeshData*>(p.exec.state("q")->outputs.at(0).get());
+  ASSERT_NE(mesh, nullptr);
+  ASSERT_TRUE(mesh->value.cellFields.count("certificate_flags"));
+  const auto& flags = mesh->value.cellFields.at("certificate_flags").values;
+  EXPECT_GT(std::count_if(flags.begin(), flags.end(), [](double f) { return int(f) & 8; }), 0);
+
+  // require_components: the module fails naming the lost component; the writer is skipped.
+  p.net.setParameterText("q", "require_components", "true");
+  EXPECT_FALSE(p.exec.execute(p.net).success);
+  EXPECT_EQ(p.exec.state("q")->status, ModuleStatus::Error);
+  const std::string err = p.exec.state("q")->error;
+  EXPECT_NE(err.find("the mesh fails its certificate: require_components: 1 lost"), std::string::npos) << err;
+  EXPECT_NE(err.find("label 2, image component of 7 voxels"), std::string::npos) << err;
+  EXPECT_EQ(p.exec.state("w")->status, ModuleStatus::Skipped);
+  EXPECT_FALSE(std::get<bool>(*p.report("q").find("cert_passed"))); // the report survives the failure
+
+  // Thresholds without the label volume: an input error saying what to connect.
+  for (const auto& c : std::vector<Connection>(p.net.connections()))
+    if (c.to == "q" && c.toPort == 1) p.net.disconnect(c.id);
+  p.exec.execute(p.net);
+  EXPECT_EQ(p.exec.state("q")->status, ModuleStatus::Error);
+  EXPECT_NE(p.exec.state("q")->error.find("label volume on input port 1"), std::string::npos)
+      << p.exec.state("q")->error;
+}

@@ -4,7 +4,9 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "Algorithms/IO/FileUtil.h"
 #include "TestUtil.h"
@@ -134,4 +136,63 @@ TEST(Cli, ReportPathIsCheckedBeforeRunning) {
   const Result r = run("run " + tmp.file("n.srn") + " --report " + tmp.file("nodir/r.json"));
   EXPECT_EQ(r.code, 4) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.path() / "out" / "sphere.nrrd"));
+}
+
+namespace {
+// The blob phantom written as labels, and its mesh on a 6 mm lattice (the 7-voxel blob is lost).
+const char* kBlobNet = R"(<?xml version="1.0"?>
+<network version="tetflow-1">
+  <modules>
+    <module id="m1" name="CreatePhantom">
+      <var name="kind" val="{blob}"/>
+      <var name="radius" val="{6}"/>
+      <var name="voxel_size" val="{1}"/>
+    </module>
+    <module id="m2" name="GenerateBackgroundMesh"><var name="cell_size" val="{CELL}"/></module>
+    <module id="m3" name="CleaveMesh"><var name="strip_exterior" val="{0}"/></module>
+    <module id="m4" name="WriteMesh"><var name="filename" val="{blob.vtu}"/></module>
+    <module id="m5" name="WriteVolume"><var name="filename" val="{blob.nrrd}"/></module>
+  </modules>
+  <connections>
+    <connection from="m1" fromport="0" to="m2" toport="0"/>
+    <connection from="m1" fromport="0" to="m3" toport="0"/>
+    <connection from="m2" fromport="0" to="m3" toport="1"/>
+    <connection from="m3" fromport="0" to="m4" toport="0"/>
+    <connection from="m1" fromport="0" to="m5" toport="0"/>
+  </connections>
+</network>
+)";
+} // namespace
+
+TEST(Cli, CertifyComparesAMeshWithItsLabelsAndFailsOnThresholds) {
+  tetflow::test::TempDir tmp;
+  std::string net = kBlobNet;
+  net.replace(net.find("CELL"), 4, "6");
+  write(tmp.file("blob.srn"), net);
+  ASSERT_EQ(run("run " + tmp.file("blob.srn") + " --quiet").code, 0);
+  const std::string files = tmp.file("blob.vtu") + " " + tmp.file("blob.nrrd");
+
+  Result r = run("certify " + files + " --output " + tmp.file("flagged.vtu") + " --report " + tmp.file("c.json"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("certificate: per label"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("excluded labels: 0; components lost 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("lost: label 2, image component of 7 voxels"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(tmp.file("flagged.vtu")));
+  std::ifstream json(tmp.file("c.json"));
+  const std::string js((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+  EXPECT_NE(js.find("\"cert_components_lost\": 1"), std::string::npos);
+
+  r = run("certify " + files + " --require-components");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("the mesh fails its certificate: require_components: 1 lost"), std::string::npos) << r.out;
+  r = run("certify " + files + " --strict");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("max_volume_error 3 %"), std::string::npos) << r.out;
+
+  // Usage and missing files.
+  EXPECT_EQ(run("certify " + tmp.file("blob.vtu")).code, 2);
+  EXPECT_EQ(run("certify " + files + " --bogus").code, 2);
+  r = run("certify " + tmp.file("nothing.vtu") + " " + tmp.file("blob.nrrd"));
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.out.find("nothing.vtu: file not found"), std::string::npos) << r.out;
 }

@@ -54,7 +54,7 @@ TEST_F(EvaluateQualityFixture, IsRegisteredWithItsContract) {
   EXPECT_EQ(std::get<double>(bin->defaultValue), 5.0);
   EXPECT_EQ(bin->max, 90.0);
   EXPECT_EQ(info->summaryKeys,
-            (std::vector<std::string>{"tets", "min_dihedral_deg", "max_dihedral_deg", "valid"}));
+            (std::vector<std::string>{"tets", "min_dihedral_deg", "max_dihedral_deg", "valid", "cert_passed"}));
   Network net(reg);
   const auto id = net.addModule("EvaluateQuality");
   EXPECT_THROW(net.setParameterText(id, "bin_width", "0"), InputError);

@@ -1,0 +1,885 @@
+#include "Certificate.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <parallel/algorithm>
+#include <unordered_map>
+
+#include "Algorithms/Core/Errors.h"
+
+namespace tetflow {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int32_t kOutside = -1;   // neighbour across a boundary face
+constexpr int32_t kCrowded = -2;   // neighbour across a face of more than two tets
+constexpr double kExcludedCoverage = 0.01;
+
+// Union-find whose root is always the smallest index of its set (deterministic numbering).
+struct DisjointSets {
+  std::vector<int32_t> parent;
+  explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int32_t find(int32_t x) {
+    while (parent[static_cast<size_t>(x)] != x) {
+      parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+      x = parent[static_cast<size_t>(x)];
+    }
+    return x;
+  }
+  void unite(int32_t a, int32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return;
+    if (a < b) std::swap(a, b);
+    parent[static_cast<size_t>(a)] = b;
+  }
+};
+
+struct PlaceAcc {
+  double weight = 0.0;
+  Vec3 sum{0, 0, 0};
+  Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
+  void add(const Vec3& p, double w) {
+    weight += w;
+    sum = sum + w * p;
+    extend(p);
+  }
+  void extend(const Vec3& p) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  }
+  void merge(const PlaceAcc& o) {
+    weight += o.weight;
+    sum = sum + o.sum;
+    extend(o.lo);
+    extend(o.hi);
+  }
+  Place place() const {
+    Place p;
+    p.centroid = weight > 0 ? (1.0 / weight) * sum : sum;
+    p.boxMin = weight > 0 ? lo : Vec3{0, 0, 0};
+    p.boxMax = weight > 0 ? hi : Vec3{0, 0, 0};
+    return p;
+  }
+};
+
+uint64_t pairKey(int32_t a, int32_t b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
+}
+std::pair<int32_t, int32_t> pairOf(uint64_t k) {
+  return {static_cast<int32_t>(static_cast<uint32_t>(k >> 32)), static_cast<int32_t>(static_cast<uint32_t>(k))};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Image side
+// ---------------------------------------------------------------------------------------------
+struct ImageComponent {
+  int32_t label = 0;
+  int64_t voxels = 0;
+  int cores = 0;
+  PlaceAcc where; // voxel centres, weight 1 each
+};
+
+struct ImageSide {
+  std::vector<int32_t> comp; // per voxel
+  std::vector<ImageComponent> comps;
+  std::map<uint64_t, std::pair<double, PlaceAcc>> contacts; // area [mm^2], face centres
+};
+
+ImageSide analyzeImage(const LabelVolume& v, Progress& progress) {
+  const auto& g = v.grid;
+  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
+  const int64_t n = g.voxelCount();
+  if (n >= std::numeric_limits<int32_t>::max())
+    throw InputError("label volume of " + std::to_string(n) + " voxels is too large for the certificate (limit 2^31)");
+  const auto& lab = v.data;
+  auto idx = [&](int64_t i, int64_t j, int64_t k) { return i + nx * (j + ny * k); };
+
+  // 26-connected components of equal labels; cores and their 26-connected components.
+  DisjointSets all(static_cast<size_t>(n)), cores(static_cast<size_t>(n));
+  std::vector<uint8_t> isCore(static_cast<size_t>(n), 0);
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
+        auto same = [&](int64_t a, int64_t b, int64_t c) {
+          if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) return true;
+          return lab[static_cast<size_t>(idx(a, b, c))] == L;
+        };
+        isCore[static_cast<size_t>(idx(i, j, k))] =
+            same(i - 1, j, k) && same(i + 1, j, k) && same(i, j - 1, k) && same(i, j + 1, k) &&
+            same(i, j, k - 1) && same(i, j, k + 1);
+      }
+  progress.checkCancel();
+  for (int64_t k = 0; k < nz; ++k) {
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int64_t p = idx(i, j, k);
+        const int32_t L = lab[static_cast<size_t>(p)];
+        // The 13 neighbours before p in scan order.
+        for (int dk = -1; dk <= 0; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;
+              const int64_t a = i + di, b = j + dj, c = k + dk;
+              if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny) continue;
+              const int64_t q = idx(a, b, c);
+              if (lab[static_cast<size_t>(q)] != L) continue;
+              all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
+              if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
+                cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
+            }
+      }
+    if (k % 16 == 0) progress.checkCancel();
+  }
+
+  ImageSide s;
+  s.comp.assign(static_cast<size_t>(n), -1);
+  std::vector<int32_t> rootComp(static_cast<size_t>(n), -1);
+  std::vector<uint8_t> coreCounted(static_cast<size_t>(n), 0);
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int64_t p = idx(i, j, k);
+        const int32_t r = all.find(static_cast<int32_t>(p));
+        int32_t& c = rootComp[static_cast<size_t>(r)];
+        if (c < 0) {
+          c = static_cast<int32_t>(s.comps.size());
+          s.comps.push_back({});
+          s.comps.back().label = lab[static_cast<size_t>(p)];
+        }
+        s.comp[static_cast<size_t>(p)] = c;
+        ImageComponent& ic = s.comps[static_cast<size_t>(c)];
+        ++ic.voxels;
+        ic.where.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
+        if (isCore[static_cast<size_t>(p)]) {
+          const int32_t cr = cores.find(static_cast<int32_t>(p));
+          if (!coreCounted[static_cast<size_t>(cr)]) {
+            coreCounted[static_cast<size_t>(cr)] = 1;
+            ++ic.cores;
+          }
+        }
+      }
+  progress.checkCancel();
+
+  // Contacts across voxel faces.
+  const double faceArea[3] = {g.spacing[1] * g.spacing[2], g.spacing[0] * g.spacing[2],
+                              g.spacing[0] * g.spacing[1]};
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
+        const int64_t nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
+        for (int a = 0; a < 3; ++a) {
+          if (nb[a][0] >= nx || nb[a][1] >= ny || nb[a][2] >= nz) continue;
+          const int32_t M = lab[static_cast<size_t>(idx(nb[a][0], nb[a][1], nb[a][2]))];
+          if (M == L) continue;
+          auto& e = s.contacts[pairKey(L, M)];
+          e.first += faceArea[a];
+          const double h[3] = {a == 0 ? 0.5 : 0.0, a == 1 ? 0.5 : 0.0, a == 2 ? 0.5 : 0.0};
+          e.second.add(g.indexToPhysical(double(i) + h[0], double(j) + h[1], double(k) + h[2]), faceArea[a]);
+        }
+      }
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mesh side
+// ---------------------------------------------------------------------------------------------
+struct FaceRec {
+  std::array<int32_t, 3> v;
+  int64_t tf; // 4 * tet + face
+  bool operator<(const FaceRec& o) const { return v != o.v ? v < o.v : tf < o.tf; }
+};
+
+// Faces of tet (a,b,c,d) by the index of the vertex they omit: face f omits vertex f.
+constexpr int kFaceVerts[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+
+std::vector<int32_t> faceNeighbours(const TetMesh& mesh, Progress& progress) {
+  const int64_t n = static_cast<int64_t>(mesh.numTets());
+  std::vector<FaceRec> faces(static_cast<size_t>(4 * n));
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t)
+    for (int f = 0; f < 4; ++f) {
+      FaceRec& r = faces[static_cast<size_t>(4 * t + f)];
+      const auto& q = mesh.tets[static_cast<size_t>(t)];
+      r.v = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
+      std::sort(r.v.begin(), r.v.end());
+      r.tf = 4 * t + f;
+    }
+  progress.checkCancel();
+  __gnu_parallel::sort(faces.begin(), faces.end());
+  progress.checkCancel();
+  std::vector<int32_t> nb(static_cast<size_t>(4 * n), kOutside);
+  for (size_t i = 0; i < faces.size();) {
+    size_t j = i + 1;
+    while (j < faces.size() && faces[j].v == faces[i].v) ++j;
+    if (j - i == 2) {
+      nb[static_cast<size_t>(faces[i].tf)] = static_cast<int32_t>(faces[i + 1].tf / 4);
+      nb[static_cast<size_t>(faces[i + 1].tf)] = static_cast<int32_t>(faces[i].tf / 4);
+    } else if (j - i > 2) {
+      for (size_t a = i; a < j; ++a) nb[static_cast<size_t>(faces[a].tf)] = kCrowded;
+    }
+    i = j;
+  }
+  return nb;
+}
+
+Vec3 centroidOf(const TetMesh& m, size_t t) {
+  const auto& q = m.tets[t];
+  return 0.25 * (m.points[static_cast<size_t>(q[0])] + m.points[static_cast<size_t>(q[1])] +
+                 m.points[static_cast<size_t>(q[2])] + m.points[static_cast<size_t>(q[3])]);
+}
+
+double faceArea(const TetMesh& m, size_t t, int f, Vec3* centre) {
+  const auto& q = m.tets[t];
+  const Vec3& a = m.points[static_cast<size_t>(q[kFaceVerts[f][0]])];
+  const Vec3& b = m.points[static_cast<size_t>(q[kFaceVerts[f][1]])];
+  const Vec3& c = m.points[static_cast<size_t>(q[kFaceVerts[f][2]])];
+  *centre = (1.0 / 3.0) * (a + b + c);
+  return 0.5 * norm(cross(b - a, c - a));
+}
+
+// Continuous voxel-index coordinates of a physical point.
+struct IndexFrame {
+  GridGeometry g;
+  Vec3 toIndex(const Vec3& p) const {
+    const Vec3 d = p - g.origin;
+    Vec3 r;
+    for (int a = 0; a < 3; ++a)
+      r[a] = (g.direction[0][a] * d[0] + g.direction[1][a] * d[1] + g.direction[2][a] * d[2]) / g.spacing[a];
+    return r;
+  }
+};
+
+} // namespace
+
+const char* componentIssueName(ComponentIssueKind k) {
+  switch (k) {
+    case ComponentIssueKind::Lost: return "lost";
+    case ComponentIssueKind::LostSmall: return "lost_small";
+    case ComponentIssueKind::Split: return "split";
+    case ComponentIssueKind::Merged: return "merged";
+    case ComponentIssueKind::Spurious: return "spurious";
+  }
+  return "?";
+}
+
+std::string describePlace(const Place& p) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "(%.1f, %.1f, %.1f) mm, box [%.1f..%.1f, %.1f..%.1f, %.1f..%.1f]",
+                p.centroid[0], p.centroid[1], p.centroid[2], p.boxMin[0], p.boxMax[0], p.boxMin[1],
+                p.boxMax[1], p.boxMin[2], p.boxMax[2]);
+  return buf;
+}
+
+CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Progress& progress) {
+  mesh.validateStructure("mesh");
+  if (mesh.numTets() == 0) throw InputError("the mesh has no tets: nothing to certify");
+  if (labels.grid.voxelCount() <= 0 || labels.data.size() != size_t(labels.grid.voxelCount()))
+    throw InputError("the label volume is empty or its data does not match its dims");
+  if (mesh.numTets() >= size_t(std::numeric_limits<int32_t>::max()) / 4)
+    throw InputError("mesh of " + std::to_string(mesh.numTets()) + " tets is too large for the certificate");
+  const auto& g = labels.grid;
+  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
+  const int64_t nVox = g.voxelCount();
+  const int64_t nTets = static_cast<int64_t>(mesh.numTets());
+
+  progress.beginStage("image");
+  ImageSide img = analyzeImage(labels, progress);
+
+  progress.beginStage("mesh");
+  const std::vector<int32_t> nb = faceNeighbours(mesh, progress);
+  DisjointSets meshSets(mesh.numTets());
+  for (int64_t t = 0; t < nTets; ++t)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+      if (o > t && mesh.materials[static_cast<size_t>(o)] == mesh.materials[static_cast<size_t>(t)])
+        meshSets.unite(static_cast<int32_t>(t), o);
+    }
+  struct MeshComponent {
+    int32_t label = 0;
+    int64_t tets = 0;
+    PlaceAcc where; // tet centroids weighted by volume; box of the centroids
+  };
+  std::vector<int32_t> meshComp(mesh.numTets());
+  std::vector<MeshComponent> mcomps;
+  {
+    std::vector<int32_t> rootComp(mesh.numTets(), -1);
+    for (int64_t t = 0; t < nTets; ++t) {
+      const int32_t r = meshSets.find(static_cast<int32_t>(t));
+      int32_t& c = rootComp[static_cast<size_t>(r)];
+      if (c < 0) {
+        c = static_cast<int32_t>(mcomps.size());
+        mcomps.push_back({});
+        mcomps.back().label = mesh.materials[static_cast<size_t>(t)];
+      }
+      meshComp[static_cast<size_t>(t)] = c;
+      auto& mc = mcomps[static_cast<size_t>(c)];
+      ++mc.tets;
+      mc.where.add(centroidOf(mesh, size_t(t)), std::abs(mesh.tetVolume(size_t(t))));
+    }
+  }
+  std::map<uint64_t, std::pair<double, PlaceAcc>> meshContacts;
+  for (int64_t t = 0; t < nTets; ++t)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+      if (o <= t) continue;
+      const int32_t a = mesh.materials[static_cast<size_t>(t)], b = mesh.materials[static_cast<size_t>(o)];
+      if (a == b) continue;
+      Vec3 c;
+      const double area = faceArea(mesh, size_t(t), f, &c);
+      auto& e = meshContacts[pairKey(a, b)];
+      e.first += area;
+      e.second.add(c, area);
+    }
+  progress.checkCancel();
+
+  // --- rasterise: the tet containing each voxel centre (smallest index on shared faces) -------
+  progress.beginStage("match");
+  const IndexFrame frame{g};
+  std::vector<Vec3> ip(mesh.numPoints());
+#pragma omp parallel for schedule(static)
+  for (int64_t p = 0; p < static_cast<int64_t>(mesh.numPoints()); ++p)
+    ip[static_cast<size_t>(p)] = frame.toIndex(mesh.points[static_cast<size_t>(p)]);
+  std::vector<int32_t> owner(static_cast<size_t>(nVox), std::numeric_limits<int32_t>::max());
+  std::atomic<bool> cancelled{false};
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t t = 0; t < nTets; ++t) {
+    if ((t & 4095) == 0 && progress.cancelRequested()) cancelled = true;
+    if (cancelled.load(std::memory_order_relaxed)) continue;
+    const auto& q = mesh.tets[static_cast<size_t>(t)];
+    const Vec3 P[4] = {ip[size_t(q[0])], ip[size_t(q[1])], ip[size_t(q[2])], ip[size_t(q[3])]};
+    int64_t lo[3], hi[3];
+    bool empty = false;
+    for (int a = 0; a < 3; ++a) {
+      const double mn = std::min({P[0][a], P[1][a], P[2][a], P[3][a]});
+      const double mx = std::max({P[0][a], P[1][a], P[2][a], P[3][a]});
+      lo[a] = std::max<int64_t>(0, static_cast<int64_t>(std::ceil(mn - 1e-9)));
+      hi[a] = std::min<int64_t>(g.dims[a] - 1, static_cast<int64_t>(std::floor(mx + 1e-9)));
+      if (lo[a] > hi[a]) empty = true;
+    }
+    if (empty) continue;
+    const double vol = signedTetVolume(P[0], P[1], P[2], P[3]);
+    if (vol == 0.0) continue;
+    const double tol = -1e-9 * std::abs(vol);
+    for (int64_t k = lo[2]; k <= hi[2]; ++k)
+      for (int64_t j = lo[1]; j <= hi[1]; ++j)
+        for (int64_t i = lo[0]; i <= hi[0]; ++i) {
+          const Vec3 x{double(i), double(j), double(k)};
+          const double s = vol > 0 ? 1.0 : -1.0;
+          if (s * signedTetVolume(x, P[1], P[2], P[3]) < tol || s * signedTetVolume(P[0], x, P[2], P[3]) < tol ||
+              s * signedTetVolume(P[0], P[1], x, P[3]) < tol || s * signedTetVolume(P[0], P[1], P[2], x) < tol)
+            continue;
+          std::atomic_ref<int32_t> o(owner[static_cast<size_t>(i + nx * (j + ny * k))]);
+          int32_t cur = o.load(std::memory_order_relaxed);
+          while (t < cur && !o.compare_exchange_weak(cur, static_cast<int32_t>(t), std::memory_order_relaxed)) {
+          }
+        }
+  }
+  if (cancelled) throw Cancelled();
+
+  // Labels: per label figures from voxels and tets.
+  CertificateResult res;
+  std::map<int32_t, LabelCertificate> byLabel;
+  std::map<int32_t, int64_t> covered; // voxel centres inside the mesh, per image label
+  std::map<int32_t, int64_t> agree;
+  for (int64_t v = 0; v < nVox; ++v) {
+    const int32_t L = labels.data[static_cast<size_t>(v)];
+    auto& lc = byLabel[L];
+    ++lc.voxels;
+    const int32_t o = owner[static_cast<size_t>(v)];
+    if (o != std::numeric_limits<int32_t>::max()) {
+      ++covered[L];
+      if (mesh.materials[static_cast<size_t>(o)] == L) ++agree[L];
+    }
+  }
+  for (int64_t t = 0; t < nTets; ++t) {
+    auto& lc = byLabel[mesh.materials[static_cast<size_t>(t)]];
+    ++lc.tets;
+    lc.meshVolume += mesh.tetVolume(size_t(t));
+  }
+  std::map<int32_t, bool> excluded;
+  int64_t agreeAll = 0, voxAll = 0;
+  for (auto& [L, lc] : byLabel) {
+    lc.label = L;
+    lc.voxelVolume = double(lc.voxels) * g.voxelVolume();
+    lc.excluded = lc.tets == 0 && lc.voxels > 0 && double(covered[L]) <= kExcludedCoverage * double(lc.voxels);
+    excluded[L] = lc.excluded;
+    if (lc.excluded) {
+      res.excludedLabels.push_back(L);
+      continue;
+    }
+    lc.absError = lc.meshVolume - lc.voxelVolume;
+    lc.relError = lc.voxels > 0 ? lc.absError / lc.voxelVolume : 0.0;
+    lc.agreement = lc.voxels > 0 ? double(agree[L]) / double(lc.voxels) : 0.0;
+    agreeAll += agree[L];
+    voxAll += lc.voxels;
+    if (lc.voxels > 0 && std::abs(lc.relError) > std::abs(res.worstRelError)) {
+      res.worstRelError = lc.relError;
+      res.worstLabel = L;
+    }
+  }
+  res.agreement = voxAll > 0 ? double(agreeAll) / double(voxAll) : 0.0;
+  for (const auto& c : img.comps) {
+    auto& lc = byLabel[c.label];
+    ++lc.imageComponents;
+    if (c.cores > 0) ++lc.robustComponents;
+  }
+  for (const auto& c : mcomps) ++byLabel[c.label].meshComponents;
+
+  // --- votes: every tet for the image component of its label at / next to its centroid -------
+  const Vec3 sp = g.spacing;
+  std::vector<int32_t> vote(mesh.numTets(), -1);
+  std::vector<int32_t> centroidVoxelComp(mesh.numTets(), -1);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nTets; ++t) {
+    const auto& q = mesh.tets[static_cast<size_t>(t)];
+    const Vec3 c = 0.25 * (ip[size_t(q[0])] + ip[size_t(q[1])] + ip[size_t(q[2])] + ip[size_t(q[3])]);
+    int64_t r[3];
+    for (int a = 0; a < 3; ++a)
+      r[a] = std::clamp<int64_t>(static_cast<int64_t>(std::llround(c[a])), 0, g.dims[a] - 1);
+    const int64_t v = r[0] + nx * (r[1] + ny * r[2]);
+    centroidVoxelComp[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(v)];
+    const int32_t L = mesh.materials[static_cast<size_t>(t)];
+    if (labels.data[static_cast<size_t>(v)] == L) {
+      vote[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(v)];
+      continue;
+    }
+    double best = kInf;
+    for (int dk = -1; dk <= 1; ++dk)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) {
+          const int64_t a = r[0] + di, b = r[1] + dj, e = r[2] + dk;
+          if (a < 0 || b < 0 || e < 0 || a >= nx || b >= ny || e >= nz) continue;
+          const int64_t w = a + nx * (b + ny * e);
+          if (labels.data[static_cast<size_t>(w)] != L) continue;
+          const double dx = (double(a) - c[0]) * sp[0], dy = (double(b) - c[1]) * sp[1],
+                       dz = (double(e) - c[2]) * sp[2];
+          const double d2 = dx * dx + dy * dy + dz * dz;
+          if (d2 < best) {
+            best = d2;
+            vote[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(w)];
+          }
+        }
+  }
+  progress.checkCancel();
+  std::unordered_map<uint64_t, double> overlap; // (mesh comp, image comp) -> volume
+  for (int64_t t = 0; t < nTets; ++t) {
+    const int32_t c = vote[static_cast<size_t>(t)];
+    if (c < 0) continue;
+    overlap[(uint64_t(uint32_t(meshComp[size_t(t)])) << 32) | uint32_t(c)] += std::abs(mesh.tetVolume(size_t(t)));
+  }
+  // Deterministic order for the lists below.
+  std::vector<std::pair<uint64_t, double>> ov(overlap.begin(), overlap.end());
+  std::sort(ov.begin(), ov.end());
+  std::vector<std::vector<std::pair<int32_t, double>>> piecesOf(img.comps.size()); // mesh comps
+  std::vector<std::vector<int32_t>> imageOf(mcomps.size());                          // image comps
+  for (const auto& [k, vol] : ov) {
+    const int32_t m = static_cast<int32_t>(k >> 32), c = static_cast<int32_t>(uint32_t(k));
+    piecesOf[size_t(c)].push_back({m, vol});
+    imageOf[size_t(m)].push_back(c);
+  }
+
+  res.flags.assign(mesh.numTets(), 0);
+  std::vector<int32_t> meshFlag(mcomps.size(), 0);
+  std::vector<uint8_t> lostComp(img.comps.size(), 0);
+  for (size_t c = 0; c < img.comps.size(); ++c) {
+    const auto& ic = img.comps[c];
+    if (excluded[ic.label]) continue;
+    auto& pieces = piecesOf[c];
+    ComponentIssue is;
+    is.label = ic.label;
+    is.voxels = ic.voxels;
+    is.cores = ic.cores;
+    is.pieces = static_cast<int>(pieces.size());
+    is.where = ic.where.place();
+    if (pieces.empty()) {
+      is.kind = ic.cores > 0 ? ComponentIssueKind::Lost : ComponentIssueKind::LostSmall;
+      if (ic.cores > 0) lostComp[c] = 1;
+      res.componentIssues.push_back(is);
+    } else if (static_cast<int>(pieces.size()) > std::max(1, ic.cores)) {
+      is.kind = ComponentIssueKind::Split;
+      res.componentIssues.push_back(is);
+      size_t largest = 0;
+      for (size_t p = 1; p < pieces.size(); ++p)
+        if (pieces[p].second > pieces[largest].second) largest = p;
+      for (size_t p = 0; p < pieces.size(); ++p)
+        if (p != largest) meshFlag[size_t(pieces[p].first)] |= 2;
+    }
+  }
+  for (size_t m = 0; m < mcomps.size(); ++m) {
+    const auto& mc = mcomps[m];
+    int robust = 0;
+    for (int32_t c : imageOf[m]) robust += img.comps[size_t(c)].cores > 0 ? 1 : 0;
+    ComponentIssue is;
+    is.label = mc.label;
+    is.meshVolume = mc.where.weight;
+    is.where = mc.where.place();
+    if (imageOf[m].empty()) {
+      is.kind = ComponentIssueKind::Spurious;
+      meshFlag[m] |= 1;
+      res.componentIssues.push_back(is);
+    } else if (robust >= 2) {
+      is.kind = ComponentIssueKind::Merged;
+      is.pieces = robust;
+      meshFlag[m] |= 4;
+      res.componentIssues.push_back(is);
+    }
+  }
+  for (const auto& is : res.componentIssues) {
+    auto& lc = byLabel[is.label];
+    switch (is.kind) {
+      case ComponentIssueKind::Lost: ++lc.lost; ++res.lost; break;
+      case ComponentIssueKind::LostSmall: ++lc.lostSmall; ++res.lostSmall; break;
+      case ComponentIssueKind::Split: ++lc.split; ++res.split; break;
+      case ComponentIssueKind::Merged: ++lc.merged; ++res.merged; break;
+      case ComponentIssueKind::Spurious: ++lc.spurious; ++res.spurious; break;
+    }
+  }
+  std::stable_sort(res.componentIssues.begin(), res.componentIssues.end(),
+                   [](const ComponentIssue& a, const ComponentIssue& b) {
+                     if (a.kind != b.kind) return a.kind < b.kind;
+                     const double sa = a.voxels > 0 ? double(a.voxels) : a.meshVolume;
+                     const double sb = b.voxels > 0 ? double(b.voxels) : b.meshVolume;
+                     return sa > sb;
+                   });
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nTets; ++t) {
+    int32_t f = meshFlag[size_t(meshComp[size_t(t)])];
+    const int32_t cc = centroidVoxelComp[size_t(t)];
+    if (cc >= 0 && lostComp[size_t(cc)]) f |= 8;
+    res.flags[size_t(t)] = f;
+  }
+  for (int64_t v = 0; v < nVox; ++v) {
+    const int32_t o = owner[static_cast<size_t>(v)];
+    if (o != std::numeric_limits<int32_t>::max() && lostComp[size_t(img.comp[size_t(v)])]) res.flags[size_t(o)] |= 8;
+  }
+
+  // --- contacts ---------------------------------------------------------------------------
+  for (const auto& [k, e] : meshContacts) {
+    const auto [a, b] = pairOf(k);
+    if (excluded[a] || excluded[b]) continue;
+    auto it = img.contacts.find(k);
+    if (it != img.contacts.end()) continue;
+    ContactIssue ci;
+    ci.a = a;
+    ci.b = b;
+    ci.meshArea = e.first;
+    ci.where = e.second.place();
+    res.spuriousContacts.push_back(ci);
+    res.spuriousContactArea += e.first;
+  }
+  for (const auto& [k, e] : img.contacts) {
+    const auto [a, b] = pairOf(k);
+    if (excluded[a] || excluded[b]) continue;
+    if (meshContacts.count(k)) continue;
+    ContactIssue ci;
+    ci.a = a;
+    ci.b = b;
+    ci.imageArea = e.first;
+    ci.where = e.second.place();
+    res.missingContacts.push_back(ci);
+  }
+  std::stable_sort(res.spuriousContacts.begin(), res.spuriousContacts.end(),
+                   [](const ContactIssue& x, const ContactIssue& y) { return x.meshArea > y.meshArea; });
+  std::stable_sort(res.missingContacts.begin(), res.missingContacts.end(),
+                   [](const ContactIssue& x, const ContactIssue& y) { return x.imageArea > y.imageArea; });
+  if (!res.spuriousContacts.empty()) {
+    for (int64_t t = 0; t < nTets; ++t)
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+        if (o < 0) continue;
+        const int32_t a = mesh.materials[size_t(t)], b = mesh.materials[size_t(o)];
+        if (a == b) continue;
+        const uint64_t k = pairKey(a, b);
+        if (!img.contacts.count(k) && !excluded[a] && !excluded[b]) res.flags[size_t(t)] |= 16;
+      }
+  }
+  progress.checkCancel();
+
+  // --- interfaces: non-manifold edges (sorted (edge, label, tet) records) ---------------------
+  progress.beginStage("interfaces");
+  struct EdgeRec {
+    uint64_t edge;
+    int32_t label;
+    int32_t tet;
+    bool operator<(const EdgeRec& o) const {
+      return edge != o.edge ? edge < o.edge : (label != o.label ? label < o.label : tet < o.tet);
+    }
+  };
+  std::vector<EdgeRec> er;
+  for (int64_t t = 0; t < nTets; ++t) {
+    const int32_t L = mesh.materials[size_t(t)];
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+      if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
+      const auto& q = mesh.tets[size_t(t)];
+      const int32_t v[3] = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
+      for (int e = 0; e < 3; ++e) {
+        const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
+        er.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
+      }
+    }
+  }
+  __gnu_parallel::sort(er.begin(), er.end());
+  uint64_t lastBadEdge = ~uint64_t(0);
+  for (size_t i = 0; i < er.size();) {
+    size_t j = i + 1;
+    while (j < er.size() && er[j].edge == er[i].edge && er[j].label == er[i].label) ++j;
+    if (j - i > 2) {
+      if (er[i].edge != lastBadEdge) {
+        ++res.nonmanifoldEdges;
+        lastBadEdge = er[i].edge;
+        if (res.nonmanifoldPlaces.size() < 20) {
+          const auto [a, b] = pairOf(er[i].edge);
+          res.nonmanifoldPlaces.push_back(0.5 * (mesh.points[size_t(a)] + mesh.points[size_t(b)]));
+        }
+      }
+      ++byLabel[er[i].label].nonmanifoldEdges;
+      for (size_t a = i; a < j; ++a) res.flags[size_t(er[a].tet)] |= 32;
+    }
+    i = j;
+  }
+  std::vector<EdgeRec>().swap(er);
+  progress.checkCancel();
+
+  // --- interfaces: non-manifold vertices (vertex stars) ------------------------------------
+  const size_t nP = mesh.numPoints();
+  std::vector<int64_t> off(nP + 1, 0);
+  for (const auto& q : mesh.tets)
+    for (int a = 0; a < 4; ++a) ++off[size_t(q[a]) + 1];
+  for (size_t p = 0; p < nP; ++p) off[p + 1] += off[p];
+  std::vector<int32_t> star(static_cast<size_t>(off[nP]));
+  {
+    std::vector<int64_t> pos(off.begin(), off.end() - 1);
+    for (int64_t t = 0; t < nTets; ++t)
+      for (int a = 0; a < 4; ++a) star[size_t(pos[size_t(mesh.tets[size_t(t)][a])]++)] = static_cast<int32_t>(t);
+  }
+  std::vector<uint8_t> badVertex(nP, 0);
+  std::vector<std::map<int32_t, int64_t>> badPerLabel(static_cast<size_t>(omp_get_max_threads()));
+#pragma omp parallel
+  {
+    auto& mine = badPerLabel[static_cast<size_t>(omp_get_thread_num())];
+    std::vector<int32_t> parent;
+#pragma omp for schedule(dynamic, 1024)
+    for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
+      const int64_t b = off[size_t(p)], e = off[size_t(p) + 1];
+      if (e - b < 2) continue;
+      const int32_t L0 = mesh.materials[size_t(star[size_t(b)])];
+      bool mixed = false;
+      for (int64_t s = b + 1; s < e && !mixed; ++s) mixed = mesh.materials[size_t(star[size_t(s)])] != L0;
+      if (!mixed) continue;
+      const int64_t k = e - b;
+      // Local adjacency through the three faces at p of each star tet.
+      auto local = [&](int32_t t) -> int64_t {
+        for (int64_t s = 0; s < k; ++s)
+          if (star[size_t(b + s)] == t) return s;
+        return -1;
+      };
+      std::vector<std::pair<int64_t, int64_t>> links;
+      for (int64_t s = 0; s < k; ++s) {
+        const int32_t t = star[size_t(b + s)];
+        for (int f = 0; f < 4; ++f) {
+          if (mesh.tets[size_t(t)][f] == p) continue; // the face opposite p
+          const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+          if (o > t) {
+            const int64_t lo = local(o);
+            if (lo >= 0) links.push_back({s, lo});
+          }
+        }
+      }
+      std::map<int32_t, int> labelsHere;
+      for (int64_t s = 0; s < k; ++s) labelsHere[mesh.materials[size_t(star[size_t(b + s)])]] = 0;
+      auto groups = [&](auto inSet) {
+        parent.resize(size_t(k));
+        std::iota(parent.begin(), parent.end(), 0);
+        auto find = [&](int32_t x) {
+          while (parent[size_t(x)] != x) x = parent[size_t(x)] = parent[size_t(parent[size_t(x)])];
+          return x;
+        };
+        for (const auto& [x, y] : links)
+          if (inSet(x) && inSet(y)) {
+            const int32_t rx = find(int32_t(x)), ry = find(int32_t(y));
+            if (rx != ry) parent[size_t(std::max(rx, ry))] = std::min(rx, ry);
+          }
+        int count = 0;
+        for (int64_t s = 0; s < k; ++s)
+          if (inSet(s) && find(int32_t(s)) == s) ++count;
+        return count;
+      };
+      for (auto& [L, unused] : labelsHere) {
+        (void)unused;
+        const int32_t lab = L;
+        auto isL = [&](int64_t s) { return mesh.materials[size_t(star[size_t(b + s)])] == lab; };
+        auto notL = [&](int64_t s) { return !isL(s); };
+        if (groups(isL) > 1 || groups(notL) > 1) {
+          badVertex[size_t(p)] = 1;
+          ++mine[lab];
+          for (int64_t s = 0; s < k; ++s)
+            if (isL(s)) {
+              std::atomic_ref<int32_t> fl(res.flags[size_t(star[size_t(b + s)])]);
+              fl.fetch_or(32, std::memory_order_relaxed);
+            }
+        }
+      }
+    }
+  }
+  for (const auto& m : badPerLabel)
+    for (const auto& [L, c] : m) byLabel[L].nonmanifoldVertices += c;
+  for (size_t p = 0; p < nP; ++p)
+    if (badVertex[p]) {
+      ++res.nonmanifoldVertices;
+      if (res.nonmanifoldPlaces.size() < 20) res.nonmanifoldPlaces.push_back(mesh.points[p]);
+    }
+  progress.endStage();
+
+  for (auto& [L, lc] : byLabel) res.labels.push_back(lc);
+  return res;
+}
+
+std::vector<std::string> certificateFailures(const CertificateResult& r, const CertificateThresholds& t) {
+  std::vector<std::string> out;
+  char buf[512];
+  if (t.maxVolumeError > 0) {
+    const LabelCertificate* worst = nullptr;
+    int over = 0;
+    for (const auto& lc : r.labels) {
+      if (lc.excluded || lc.voxels == 0) continue;
+      if (std::abs(lc.relError) > t.maxVolumeError) {
+        ++over;
+        if (!worst || std::abs(lc.relError) > std::abs(worst->relError)) worst = &lc;
+      }
+    }
+    if (worst) {
+      std::snprintf(buf, sizeof buf,
+                    "max_volume_error %.3g %%: %d label(s) exceed it; worst is label %d at %+.2f %% "
+                    "(mesh %.6g mm^3, voxels %.6g mm^3); refine the background at thin layers "
+                    "(smaller cell_size / min_cell_size) or lower blend_sigma",
+                    100.0 * t.maxVolumeError, over, worst->label, 100.0 * worst->relError,
+                    worst->meshVolume, worst->voxelVolume);
+      out.push_back(buf);
+    }
+  }
+  if (t.requireComponents) {
+    int bad = r.lost + r.split + r.merged + r.spurious;
+    if (bad > 0) {
+      const ComponentIssue* first = nullptr;
+      for (const auto& is : r.componentIssues)
+        if (is.kind != ComponentIssueKind::LostSmall) {
+          first = &is;
+          break;
+        }
+      std::string what;
+      if (first) {
+        if (first->voxels > 0)
+          std::snprintf(buf, sizeof buf, "%s: label %d, image component of %lld voxels, %d mesh piece(s), at %s",
+                        componentIssueName(first->kind), first->label, static_cast<long long>(first->voxels),
+                        first->pieces, describePlace(first->where).c_str());
+        else
+          std::snprintf(buf, sizeof buf, "%s: label %d, mesh component of %.6g mm^3 at %s",
+                        componentIssueName(first->kind), first->label, first->meshVolume,
+                        describePlace(first->where).c_str());
+        what = buf;
+      }
+      std::snprintf(buf, sizeof buf,
+                    "require_components: %d lost, %d split, %d merged, %d spurious component(s); worst: ",
+                    r.lost, r.split, r.merged, r.spurious);
+      out.push_back(std::string(buf) + what);
+    }
+  }
+  if (t.forbidSpuriousContacts && !r.spuriousContacts.empty()) {
+    const auto& c = r.spuriousContacts.front();
+    std::snprintf(buf, sizeof buf,
+                  "forbid_spurious_contacts: %zu label pair(s) touch in the mesh but not in the image; "
+                  "worst: labels %d and %d over %.6g mm^2 at %s",
+                  r.spuriousContacts.size(), c.a, c.b, c.meshArea, describePlace(c.where).c_str());
+    out.push_back(buf);
+  }
+  return out;
+}
+
+void writeCertificateReport(const CertificateResult& r, Report& report, size_t maxListed) {
+  report.set("cert_rule",
+             "per label: every robust (6-erosion surviving) 26-connected image component kept, "
+             "none split beyond its cores, none merged, no spurious mesh component; contacts by "
+             "voxel faces");
+  std::string ex;
+  for (int32_t L : r.excludedLabels) ex += (ex.empty() ? "" : " ") + std::to_string(L);
+  report.set("cert_excluded_labels", ex);
+  report.set("cert_voxel_agreement", ReportValue(r.agreement));
+  report.set("cert_worst_volume_rel_error", ReportValue(r.worstRelError));
+  report.set("cert_worst_volume_label", ReportValue(int64_t(r.worstLabel)));
+  report.set("cert_components_lost", ReportValue(int64_t(r.lost)));
+  report.set("cert_components_lost_small", ReportValue(int64_t(r.lostSmall)));
+  report.set("cert_components_split", ReportValue(int64_t(r.split)));
+  report.set("cert_components_merged", ReportValue(int64_t(r.merged)));
+  report.set("cert_components_spurious", ReportValue(int64_t(r.spurious)));
+  report.set("cert_spurious_contacts", ReportValue(int64_t(r.spuriousContacts.size())));
+  report.set("cert_spurious_contact_area_mm2", ReportValue(r.spuriousContactArea));
+  report.set("cert_missing_contacts", ReportValue(int64_t(r.missingContacts.size())));
+  report.set("cert_nonmanifold_edges", ReportValue(r.nonmanifoldEdges));
+  report.set("cert_nonmanifold_vertices", ReportValue(r.nonmanifoldVertices));
+  for (const auto& lc : r.labels) {
+    const std::string k = "cert_label_" + std::to_string(lc.label) + "_";
+    if (lc.excluded) {
+      report.set(k + "excluded", ReportValue(true));
+      continue;
+    }
+    report.set(k + "voxel_volume_mm3", ReportValue(lc.voxelVolume));
+    report.set(k + "mesh_volume_mm3", ReportValue(lc.meshVolume));
+    report.set(k + "volume_abs_error_mm3", ReportValue(lc.absError));
+    report.set(k + "volume_rel_error", ReportValue(lc.relError));
+    report.set(k + "image_components", ReportValue(int64_t(lc.imageComponents)));
+    report.set(k + "robust_components", ReportValue(int64_t(lc.robustComponents)));
+    report.set(k + "mesh_components", ReportValue(int64_t(lc.meshComponents)));
+    report.set(k + "voxel_agreement", ReportValue(lc.agreement));
+  }
+  char buf[512];
+  for (size_t i = 0; i < r.componentIssues.size() && i < maxListed; ++i) {
+    const auto& is = r.componentIssues[i];
+    if (is.voxels > 0)
+      std::snprintf(buf, sizeof buf, "%s: label %d, image component of %lld voxels (%d core(s)), %d mesh piece(s), at %s",
+                    componentIssueName(is.kind), is.label, static_cast<long long>(is.voxels), is.cores,
+                    is.pieces, describePlace(is.where).c_str());
+    else if (is.kind == ComponentIssueKind::Merged)
+      std::snprintf(buf, sizeof buf, "merged: label %d, mesh component of %.6g mm^3 joins %d robust image components, at %s",
+                    is.label, is.meshVolume, is.pieces, describePlace(is.where).c_str());
+    else
+      std::snprintf(buf, sizeof buf, "%s: label %d, mesh component of %.6g mm^3, at %s",
+                    componentIssueName(is.kind), is.label, is.meshVolume, describePlace(is.where).c_str());
+    report.set("cert_issue_" + std::to_string(i + 1), std::string(buf));
+  }
+  for (size_t i = 0; i < r.spuriousContacts.size() && i < maxListed; ++i) {
+    const auto& c = r.spuriousContacts[i];
+    std::snprintf(buf, sizeof buf, "labels %d and %d: %.6g mm^2 in the mesh, none in the image, at %s", c.a, c.b,
+                  c.meshArea, describePlace(c.where).c_str());
+    report.set("cert_spurious_contact_" + std::to_string(i + 1), std::string(buf));
+  }
+  for (size_t i = 0; i < r.missingContacts.size() && i < maxListed; ++i) {
+    const auto& c = r.missingContacts[i];
+    std::snprintf(buf, sizeof buf, "labels %d and %d: %.6g mm^2 in the image, none in the mesh, at %s", c.a, c.b,
+                  c.imageArea, describePlace(c.where).c_str());
+    report.set("cert_missing_contact_" + std::to_string(i + 1), std::string(buf));
+  }
+  std::string places;
+  for (size_t i = 0; i < r.nonmanifoldPlaces.size() && i < 5; ++i) {
+    std::snprintf(buf, sizeof buf, "%s(%.1f, %.1f, %.1f)", i ? " " : "", r.nonmanifoldPlaces[i][0],
+                  r.nonmanifoldPlaces[i][1], r.nonmanifoldPlaces[i][2]);
+    places += buf;
+  }
+  if (!places.empty()) report.set("cert_nonmanifold_at_mm", places);
+}
+
+} // namespace tetflow

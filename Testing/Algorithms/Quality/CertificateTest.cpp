@@ -1,0 +1,405 @@
+// Tests for Algorithms/Quality/Certificate: the exact voxel mesh (every voxel split into 6 Kuhn
+// tets) of random label volumes against a brute-force voxel computation of the same rules (BFS, not
+// union-find); deliberately damaged meshes (a component relabelled away, a spurious island, two
+// blobs bridged, a label removed from the outside) must be flagged with the right counts, places
+// and per-tet flags; contacts, non-manifold edges, thresholds and bad input.
+#include "Algorithms/Quality/Certificate.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <omp.h>
+#include <map>
+#include <random>
+#include <set>
+
+#include "Algorithms/Core/Errors.h"
+#include "TestUtil.h"
+
+namespace tetflow {
+namespace {
+
+LabelVolume makeVolume(int nx, int ny, int nz, double h = 1.0, int32_t fill = 0) {
+  LabelVolume v;
+  GridGeometry g;
+  g.dims = {nx, ny, nz};
+  g.spacing = {h, h, h};
+  g.origin = {1.0, -2.0, 0.5};
+  v.allocate(g, fill);
+  return v;
+}
+
+// Every voxel a cube (its corners at the voxel's faces) split into the 6 Kuhn tets around its
+// main diagonal: a conforming mesh that represents the label volume exactly.
+TetMesh voxelMesh(const LabelVolume& v) {
+  const auto& g = v.grid;
+  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
+  TetMesh m;
+  auto pid = [&](int64_t i, int64_t j, int64_t k) { return int32_t(i + (nx + 1) * (j + (ny + 1) * k)); };
+  for (int64_t k = 0; k <= nz; ++k)
+    for (int64_t j = 0; j <= ny; ++j)
+      for (int64_t i = 0; i <= nx; ++i)
+        m.points.push_back(g.indexToPhysical(double(i) - 0.5, double(j) - 0.5, double(k) - 0.5));
+  const int step[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        int perm[3] = {0, 1, 2};
+        do {
+          int64_t c[3] = {i, j, k};
+          TetMesh::Tet t;
+          t[0] = pid(c[0], c[1], c[2]);
+          for (int s = 0; s < 3; ++s) {
+            for (int a = 0; a < 3; ++a) c[a] += step[perm[s]][a];
+            t[s + 1] = pid(c[0], c[1], c[2]);
+          }
+          m.tets.push_back(t);
+          m.materials.push_back(v.at(i, j, k));
+          if (m.tetVolume(m.numTets() - 1) < 0) std::swap(m.tets.back()[0], m.tets.back()[1]);
+        } while (std::next_permutation(perm, perm + 3));
+      }
+  return m;
+}
+
+// Tets of voxel (i,j,k) in voxelMesh: 6 consecutive ones.
+size_t firstTet(const LabelVolume& v, int64_t i, int64_t j, int64_t k) { return size_t(6 * v.index(i, j, k)); }
+void relabelVoxel(const LabelVolume& v, TetMesh& m, int64_t i, int64_t j, int64_t k, int32_t L) {
+  for (size_t t = firstTet(v, i, j, k); t < firstTet(v, i, j, k) + 6; ++t) m.materials[t] = L;
+}
+
+CertificateResult certify(const TetMesh& m, const LabelVolume& v) {
+  NullProgress p;
+  return certifyMesh(m, v, p);
+}
+
+const LabelCertificate& labelOf(const CertificateResult& r, int32_t L) {
+  for (const auto& lc : r.labels)
+    if (lc.label == L) return lc;
+  throw std::runtime_error("label not in the certificate");
+}
+
+// --- brute force: the rules of Certificate.h by BFS over voxels -----------------------------
+struct Brute {
+  std::map<int32_t, int> image26, robust, mesh6, split;
+};
+
+Brute bruteForce(const LabelVolume& v) {
+  const auto& g = v.grid;
+  const int nx = int(g.dims[0]), ny = int(g.dims[1]), nz = int(g.dims[2]);
+  auto in = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i < nx && j < ny && k < nz; };
+  auto core = [&](int i, int j, int k) {
+    const int32_t L = v.at(i, j, k);
+    const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (const auto& e : d)
+      if (in(i + e[0], j + e[1], k + e[2]) && v.at(i + e[0], j + e[1], k + e[2]) != L) return false;
+    return true;
+  };
+  // BFS labelling of a voxel subset under 6- or 26-connectivity.
+  auto components = [&](auto member, bool full) {
+    std::vector<int> comp(size_t(v.grid.voxelCount()), -1);
+    int n = 0;
+    for (int k = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          if (!member(i, j, k) || comp[size_t(v.index(i, j, k))] >= 0) continue;
+          std::deque<std::array<int, 3>> q{{i, j, k}};
+          comp[size_t(v.index(i, j, k))] = n;
+          while (!q.empty()) {
+            const auto [a, b, c] = q.front();
+            q.pop_front();
+            for (int dk = -1; dk <= 1; ++dk)
+              for (int dj = -1; dj <= 1; ++dj)
+                for (int di = -1; di <= 1; ++di) {
+                  const int s = std::abs(di) + std::abs(dj) + std::abs(dk);
+                  if (s == 0 || (!full && s != 1)) continue;
+                  const int x = a + di, y = b + dj, z = c + dk;
+                  if (!in(x, y, z) || !member(x, y, z) || v.at(x, y, z) != v.at(a, b, c)) continue;
+                  if (comp[size_t(v.index(x, y, z))] >= 0) continue;
+                  comp[size_t(v.index(x, y, z))] = n;
+                  q.push_back({x, y, z});
+                }
+          }
+          ++n;
+        }
+    return std::make_pair(comp, n);
+  };
+  auto all = [](int, int, int) { return true; };
+  const auto [c26, n26] = components(all, true);
+  const auto [c6, n6] = components(all, false);
+  const auto [cc, ncc] = components(core, true);
+  std::vector<int32_t> labelOf26(static_cast<size_t>(n26));
+  std::vector<std::set<int>> pieces(static_cast<size_t>(n26)), cores(static_cast<size_t>(n26));
+  for (int64_t x = 0; x < v.grid.voxelCount(); ++x) {
+    labelOf26[size_t(c26[size_t(x)])] = v.data[size_t(x)];
+    pieces[size_t(c26[size_t(x)])].insert(c6[size_t(x)]);
+    if (cc[size_t(x)] >= 0) cores[size_t(c26[size_t(x)])].insert(cc[size_t(x)]);
+  }
+  (void)n6;
+  (void)ncc;
+  Brute b;
+  std::set<std::pair<int32_t, int>> seen6;
+  for (int64_t x = 0; x < v.grid.voxelCount(); ++x) seen6.insert({v.data[size_t(x)], c6[size_t(x)]});
+  for (const auto& [L, c] : seen6) ++b.mesh6[L];
+  for (int c = 0; c < n26; ++c) {
+    const int32_t L = labelOf26[size_t(c)];
+    ++b.image26[L];
+    if (!cores[size_t(c)].empty()) ++b.robust[L];
+    if (int(pieces[size_t(c)].size()) > std::max<int>(1, int(cores[size_t(c)].size()))) ++b.split[L];
+  }
+  return b;
+}
+
+LabelVolume randomVolume(std::mt19937& rng) {
+  std::uniform_int_distribution<int> dim(4, 11), lab(1, 4), coin(0, 99);
+  LabelVolume v = makeVolume(dim(rng), dim(rng), dim(rng), 0.5 + 0.25 * (rng() % 4));
+  // Random boxes of random labels over a background of 0, plus salt: components of every kind.
+  const int boxes = 2 + int(rng() % 6);
+  for (int b = 0; b < boxes; ++b) {
+    const int32_t L = lab(rng);
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      const int n = int(v.grid.dims[a]);
+      lo[a] = int(rng() % n);
+      hi[a] = std::min(n - 1, lo[a] + int(rng() % 5));
+    }
+    for (int k = lo[2]; k <= hi[2]; ++k)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int i = lo[0]; i <= hi[0]; ++i) v.at(i, j, k) = L;
+  }
+  for (auto& x : v.data)
+    if (coin(rng) < 4) x = lab(rng);
+  return v;
+}
+
+TEST(Certificate, ExactVoxelMeshesOfRandomVolumesMatchTheBruteForceRules) {
+  std::mt19937 rng(20261124);
+  for (int c = 0; c < 40; ++c) {
+    const LabelVolume v = randomVolume(rng);
+    const TetMesh m = voxelMesh(v);
+    const CertificateResult r = certify(m, v);
+    const Brute b = bruteForce(v);
+    SCOPED_TRACE("case " + std::to_string(c));
+    EXPECT_TRUE(r.excludedLabels.empty());
+    EXPECT_DOUBLE_EQ(r.agreement, 1.0);
+    EXPECT_TRUE(r.spuriousContacts.empty());
+    EXPECT_TRUE(r.missingContacts.empty());
+    EXPECT_EQ(r.lost + r.lostSmall + r.merged + r.spurious, 0);
+    int split = 0;
+    for (const auto& [L, n] : b.image26) {
+      const auto& lc = labelOf(r, L);
+      EXPECT_NEAR(lc.relError, 0.0, 1e-10) << "label " << L;
+      EXPECT_EQ(lc.imageComponents, n) << "label " << L;
+      EXPECT_EQ(lc.robustComponents, b.robust.count(L) ? b.robust.at(L) : 0) << "label " << L;
+      // Face-connected voxel tets are the 6-connected voxel components.
+      EXPECT_EQ(lc.meshComponents, b.mesh6.at(L)) << "label " << L;
+      EXPECT_EQ(lc.split, b.split.count(L) ? b.split.at(L) : 0) << "label " << L;
+      split += lc.split;
+    }
+    EXPECT_EQ(r.split, split);
+    // Flags only where a split component has extra pieces (2) or a non-manifold interface (32).
+    for (int32_t f : r.flags) EXPECT_EQ(f & ~(2 | 32), 0);
+  }
+}
+
+TEST(Certificate, ContactsAreFaceContactsWithTheirArea) {
+  LabelVolume v = makeVolume(4, 3, 3, 2.0);
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j) {
+      v.at(0, j, k) = 1;
+      v.at(1, j, k) = 1;
+      v.at(2, j, k) = 2;
+      v.at(3, j, k) = 3;
+    }
+  TetMesh m = voxelMesh(v);
+  CertificateResult r = certify(m, v);
+  EXPECT_TRUE(r.spuriousContacts.empty());
+  EXPECT_TRUE(r.missingContacts.empty());
+  // Relabel the middle slab 2 -> 1 in the mesh: contact 1-3 appears (9 faces of 4 mm^2), 1-2 and
+  // 2-3 disappear, label 2 is lost (its slab is one voxel thick: no core), nothing robust lost.
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j) relabelVoxel(v, m, 2, j, k, 1);
+  r = certify(m, v);
+  ASSERT_EQ(r.spuriousContacts.size(), 1u);
+  EXPECT_EQ(r.spuriousContacts[0].a, 1);
+  EXPECT_EQ(r.spuriousContacts[0].b, 3);
+  EXPECT_NEAR(r.spuriousContacts[0].meshArea, 36.0, 1e-9);
+  EXPECT_NEAR(r.spuriousContacts[0].where.centroid[0], v.grid.indexToPhysical(2.5, 0, 0)[0], 1e-9);
+  ASSERT_EQ(r.missingContacts.size(), 2u);
+  EXPECT_NEAR(r.missingContacts[0].imageArea, 36.0, 1e-9);
+  EXPECT_EQ(r.lostSmall, 1);
+  EXPECT_EQ(r.lost, 0);
+  EXPECT_NEAR(labelOf(r, 2).relError, -1.0, 1e-12);
+  EXPECT_NEAR(labelOf(r, 1).relError, 0.5, 1e-12);
+  int touching = 0;
+  for (size_t t = 0; t < m.numTets(); ++t) touching += (r.flags[t] & 16) ? 1 : 0;
+  EXPECT_GT(touching, 0);
+}
+
+TEST(Certificate, ARelabelledRobustComponentIsLostWithItsSizeAndPlace) {
+  LabelVolume v = makeVolume(12, 10, 9, 1.5);
+  // Two 3x3x3 cubes of label 5 (each with one core voxel) in a background of 1.
+  std::fill(v.data.begin(), v.data.end(), 1);
+  for (int k = 2; k <= 4; ++k)
+    for (int j = 2; j <= 4; ++j)
+      for (int i = 2; i <= 4; ++i) {
+        v.at(i, j, k) = 5;
+        v.at(i + 5, j + 3, k + 2) = 5;
+      }
+  TetMesh m = voxelMesh(v);
+  CertificateResult r = certify(m, v);
+  EXPECT_EQ(labelOf(r, 5).imageComponents, 2);
+  EXPECT_EQ(labelOf(r, 5).robustComponents, 2);
+  EXPECT_EQ(r.lost + r.split + r.merged + r.spurious, 0);
+  // Delete the second cube from the mesh by relabelling its tets to the background.
+  for (int k = 4; k <= 6; ++k)
+    for (int j = 5; j <= 7; ++j)
+      for (int i = 7; i <= 9; ++i) relabelVoxel(v, m, i, j, k, 1);
+  r = certify(m, v);
+  ASSERT_EQ(r.lost, 1);
+  const ComponentIssue& is = r.componentIssues.front();
+  EXPECT_EQ(is.kind, ComponentIssueKind::Lost);
+  EXPECT_EQ(is.label, 5);
+  EXPECT_EQ(is.voxels, 27);
+  EXPECT_EQ(is.cores, 1);
+  const Vec3 c = v.grid.indexToPhysical(8, 6, 5);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(is.where.centroid[a], c[a], 1e-9);
+    EXPECT_NEAR(is.where.boxMax[a] - is.where.boxMin[a], 3.0, 1e-9); // centres 1.5 mm apart
+  }
+  int flagged = 0;
+  for (size_t t = 0; t < m.numTets(); ++t) flagged += (r.flags[t] & 8) ? 1 : 0;
+  EXPECT_EQ(flagged, 27 * 6);
+  const auto fails = certificateFailures(r, {0.0, true, false});
+  ASSERT_EQ(fails.size(), 1u);
+  EXPECT_NE(fails[0].find("1 lost"), std::string::npos) << fails[0];
+  EXPECT_NE(fails[0].find("label 5, image component of 27 voxels"), std::string::npos) << fails[0];
+}
+
+TEST(Certificate, AnIslandIsSpuriousAndABridgeMergesTwoBlobs) {
+  LabelVolume v = makeVolume(13, 7, 7);
+  std::fill(v.data.begin(), v.data.end(), 1);
+  // Cubes of label 2 at x 1..3 and 5..7, one voxel of background between them.
+  for (int k = 2; k <= 4; ++k)
+    for (int j = 2; j <= 4; ++j)
+      for (int i = 1; i <= 3; ++i) {
+        v.at(i, j, k) = 2;
+        v.at(i + 4, j, k) = 2;
+      }
+  TetMesh m = voxelMesh(v);
+  relabelVoxel(v, m, 4, 3, 3, 2);  // bridge
+  relabelVoxel(v, m, 11, 3, 3, 2); // island in the background
+  const CertificateResult r = certify(m, v);
+  EXPECT_EQ(r.merged, 1);
+  EXPECT_EQ(r.spurious, 1);
+  EXPECT_EQ(r.lost + r.split, 0);
+  const auto& lc = labelOf(r, 2);
+  EXPECT_EQ(lc.imageComponents, 2);
+  EXPECT_EQ(lc.meshComponents, 2);
+  bool sawSpurious = false;
+  for (const auto& is : r.componentIssues)
+    if (is.kind == ComponentIssueKind::Spurious) {
+      sawSpurious = true;
+      EXPECT_NEAR(is.meshVolume, 1.0, 1e-12);
+      const Vec3 c = v.grid.indexToPhysical(11, 3, 3);
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(is.where.centroid[a], c[a], 1e-9);
+    }
+  EXPECT_TRUE(sawSpurious);
+  for (size_t t = firstTet(v, 11, 3, 3); t < firstTet(v, 11, 3, 3) + 6; ++t) EXPECT_TRUE(r.flags[t] & 1);
+  for (size_t t = firstTet(v, 2, 3, 3); t < firstTet(v, 2, 3, 3) + 6; ++t) EXPECT_TRUE(r.flags[t] & 4);
+  // Thresholds: the component rule fails, the volume rule only above the error.
+  EXPECT_EQ(certificateFailures(r, {0.0, true, false}).size(), 1u);
+  EXPECT_TRUE(certificateFailures(r, {0.05, false, true}).empty()); // +2/54 = 3.7 %, no new contact
+  const auto f = certificateFailures(r, {0.03, false, false});
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_NE(f[0].find("worst is label 2 at +3.70 %"), std::string::npos) << f[0];
+}
+
+TEST(Certificate, AStrippedOutsideLabelIsExcluded) {
+  LabelVolume v = makeVolume(8, 8, 8);
+  for (int k = 2; k <= 5; ++k)
+    for (int j = 2; j <= 5; ++j)
+      for (int i = 2; i <= 5; ++i) v.at(i, j, k) = (i < 4) ? 3 : 4;
+  TetMesh full = voxelMesh(v);
+  TetMesh m;
+  m.points = full.points;
+  for (size_t t = 0; t < full.numTets(); ++t)
+    if (full.materials[t] != 0) {
+      m.tets.push_back(full.tets[t]);
+      m.materials.push_back(full.materials[t]);
+    }
+  const CertificateResult r = certify(m, v);
+  ASSERT_EQ(r.excludedLabels, std::vector<int32_t>{0});
+  EXPECT_TRUE(labelOf(r, 0).excluded);
+  EXPECT_EQ(r.lost + r.lostSmall + r.split + r.merged + r.spurious, 0);
+  EXPECT_TRUE(r.missingContacts.empty()); // 0-3 and 0-4 are not compared
+  EXPECT_DOUBLE_EQ(r.agreement, 1.0);
+  Report rep;
+  writeCertificateReport(r, rep);
+  EXPECT_EQ(std::get<std::string>(*rep.find("cert_excluded_labels")), "0");
+  EXPECT_TRUE(std::get<bool>(*rep.find("cert_label_0_excluded")));
+  EXPECT_NEAR(rep.number("cert_label_3_volume_rel_error"), 0.0, 1e-12);
+  EXPECT_EQ(rep.number("cert_label_4_mesh_components"), 1);
+}
+
+TEST(Certificate, LabelsTouchingAlongAnEdgeAreNonManifoldThere) {
+  LabelVolume v = makeVolume(4, 4, 3);
+  v.at(1, 1, 1) = 7;
+  v.at(2, 2, 1) = 7; // shares only the edge x = 1.5, y = 1.5 with the first
+  const TetMesh m = voxelMesh(v);
+  const CertificateResult r = certify(m, v);
+  EXPECT_EQ(r.nonmanifoldEdges, 1); // one lattice edge, non-manifold for labels 7 and 0
+  EXPECT_EQ(labelOf(r, 7).nonmanifoldEdges, 1);
+  EXPECT_GE(r.nonmanifoldVertices, 2); // the two ends of that edge
+  ASSERT_FALSE(r.nonmanifoldPlaces.empty());
+  const Vec3 mid = v.grid.indexToPhysical(1.5, 1.5, 1);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(r.nonmanifoldPlaces[0][a], mid[a], 1e-9);
+  // 26-connected, two 6-connected pieces, no cores: one split component.
+  EXPECT_EQ(labelOf(r, 7).imageComponents, 1);
+  EXPECT_EQ(labelOf(r, 7).meshComponents, 2);
+  EXPECT_EQ(r.split, 1);
+}
+
+TEST(Certificate, AMeshLabelAbsentFromTheImageIsSpuriousAndBadInputIsRefused) {
+  LabelVolume v = makeVolume(5, 5, 5, 1.0, 2);
+  TetMesh m = voxelMesh(v);
+  relabelVoxel(v, m, 2, 2, 2, 9);
+  const CertificateResult r = certify(m, v);
+  EXPECT_EQ(r.spurious, 1);
+  EXPECT_EQ(labelOf(r, 9).voxels, 0);
+  EXPECT_EQ(labelOf(r, 9).tets, 6);
+  ASSERT_EQ(r.spuriousContacts.size(), 1u);
+  EXPECT_NEAR(r.spuriousContacts[0].meshArea, 6.0, 1e-9);
+
+  NullProgress p;
+  TetMesh empty;
+  EXPECT_THROW_MSG(certifyMesh(empty, v, p), InputError, "no tets");
+  TetMesh broken = m;
+  broken.tets[0][0] = 100000;
+  EXPECT_THROW(certifyMesh(broken, v, p), InputError);
+}
+
+TEST(Certificate, SameResultOnOneAndTwoThreads) {
+  std::mt19937 rng(7);
+  const LabelVolume v = randomVolume(rng);
+  TetMesh m = voxelMesh(v);
+  for (size_t t = 0; t < m.numTets(); t += 13) m.materials[t] = 1 + int32_t(t % 3);
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const CertificateResult a = certify(m, v);
+  omp_set_num_threads(2);
+  const CertificateResult b = certify(m, v);
+  omp_set_num_threads(before);
+  EXPECT_EQ(a.flags, b.flags);
+  EXPECT_EQ(a.componentIssues.size(), b.componentIssues.size());
+  EXPECT_EQ(a.nonmanifoldEdges, b.nonmanifoldEdges);
+  EXPECT_EQ(a.nonmanifoldVertices, b.nonmanifoldVertices);
+  Report ra, rb;
+  writeCertificateReport(a, ra);
+  writeCertificateReport(b, rb);
+  EXPECT_EQ(ra.entries(), rb.entries());
+}
+
+} // namespace
+} // namespace tetflow

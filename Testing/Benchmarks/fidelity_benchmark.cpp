@@ -1,0 +1,182 @@
+// Fidelity benchmark: how well meshes keep their segmentation, measured by the mesh certificate
+// (Algorithms/Quality/Certificate.h) on the head phantom (the default net's regular lattice and
+// the adaptive net's octree, plus the levers: cell size and blend_sigma), Cleaver's spheres (the
+// certificate compares with the argmax labels of the indicator functions) and random label
+// volumes. Per run: output tets, meshing and certificate seconds, worst per-label volume error,
+// components lost / split / merged / spurious, spurious contact area, non-manifold interface
+// edges and vertices, voxel agreement.
+//
+//   fidelity_benchmark [RESULTS_FILE] [SPHERES_DIR]
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "Algorithms/BackgroundMesh/BccLattice.h"
+#include "Algorithms/BackgroundMesh/OctreeBcc.h"
+#include "Algorithms/Cleaving/Cleaver.h"
+#include "Algorithms/Core/Phantom.h"
+#include "Algorithms/IO/VolumeIO.h"
+#include "Algorithms/Quality/Certificate.h"
+#include "Algorithms/SizingField/SizingField.h"
+
+using namespace tetflow;
+
+namespace {
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+const char* kHeader =
+    "# run                                      tets   mesh_s  cert_s  worst_vol_err      lost split merged spur "
+    "spur_contact_mm2  nm_edges nm_verts agree\n";
+
+std::string row(const std::string& what, const TetMesh& mesh, double meshSeconds, const LabelVolume& labels) {
+  NullProgress np;
+  const double a = now();
+  const CertificateResult c = certifyMesh(mesh, labels, np);
+  const double certSeconds = now() - a;
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%-38s %10zu %7.2f %7.2f %+8.2f%% (L%-3d) %5d %5d %6d %4d %16.1f %9lld %8lld %.4f\n",
+                what.c_str(), mesh.numTets(), meshSeconds, certSeconds, 100.0 * c.worstRelError, c.worstLabel, c.lost,
+                c.split, c.merged, c.spurious, c.spuriousContactArea, static_cast<long long>(c.nonmanifoldEdges),
+                static_cast<long long>(c.nonmanifoldVertices), c.agreement);
+  return buf;
+}
+
+std::string regular(const std::string& what, const MaterialSet& mats, const LabelVolume& labels, double cell,
+                    bool stripZero) {
+  NullProgress np;
+  const double a = now();
+  const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{cell, 0.0}, np);
+  CleaveParams cp;
+  if (stripZero) cp.strip_exterior = 0;
+  const CleaveResult r = cleave(bg, mats, cp, np);
+  return row(what, r.mesh, now() - a, labels);
+}
+
+LabelVolume randomLabels(std::mt19937& rng, int n) {
+  LabelVolume v;
+  GridGeometry g;
+  g.dims = {n, n, n};
+  v.allocate(g, 0);
+  // Voronoi cells of random seeds with 2..6 labels, then a few one-voxel sheets.
+  std::uniform_real_distribution<double> u(0.0, n);
+  const int seeds = 4 + int(rng() % 8), labels = 2 + int(rng() % 5);
+  std::vector<Vec3> s;
+  std::vector<int32_t> l;
+  for (int i = 0; i < seeds; ++i) {
+    s.push_back({u(rng), u(rng), u(rng)});
+    l.push_back(int32_t(rng() % labels));
+  }
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        double best = 1e300;
+        for (size_t q = 0; q < s.size(); ++q) {
+          const Vec3 d = Vec3{double(i), double(j), double(k)} - s[q];
+          if (dot(d, d) < best) {
+            best = dot(d, d);
+            v.at(i, j, k) = l[q];
+          }
+        }
+      }
+  for (int sheet = 0; sheet < 2; ++sheet) {
+    const int axis = int(rng() % 3), at = 2 + int(rng() % (n - 4));
+    const int32_t L = labels + sheet;
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        int idx[3];
+        idx[axis] = at;
+        idx[(axis + 1) % 3] = a;
+        idx[(axis + 2) % 3] = b;
+        if (a > n / 4 && a < 3 * n / 4) v.at(idx[0], idx[1], idx[2]) = L;
+      }
+  }
+  return v;
+}
+} // namespace
+
+int main(int argc, char** argv) {
+  const std::string results = argc > 1 ? argv[1] : "fidelity_results.txt";
+  const std::string spheresDir = argc > 2 ? argv[2] : TETFLOW_TEST_DATA;
+  std::ostringstream out;
+  out << "# fidelity_benchmark on " << std::thread::hardware_concurrency() << " hardware threads (OpenMP "
+      << omp_get_max_threads() << "); mesh_s = background + cleave seconds\n";
+  NullProgress np;
+
+  // Head phantom, as the default net (regular 4 mm, blend_sigma 1) and the levers around it.
+  const Phantom ph = makePhantom(PhantomParams{});
+  auto vol = std::make_shared<const LabelVolume>(ph.volume);
+  out << "head phantom 97^3 voxels of 2 mm, labels 1 scalp, 2 skull, 3 CSF (one voxel), 4 brain; air stripped:\n"
+      << kHeader;
+  std::cout << out.str() << std::flush;
+  for (double sigma : {1.0, 0.5}) {
+    const LabelMaterials head(vol, sigma);
+    for (double cell : {4.0, 3.0, 2.0}) {
+      char w[128];
+      std::snprintf(w, sizeof w, "regular %.0f mm, blend_sigma %.1f%s", cell, sigma,
+                    cell == 4.0 && sigma == 1.0 ? " (default)" : "");
+      const std::string r = regular(w, head, *vol, cell, true);
+      out << r;
+      std::cout << r << std::flush;
+    }
+  }
+  {
+    // The adaptive net: sizing field rate 1, Lipschitz 0.5, sizes 4..32 -> octree_bcc -> cleave.
+    const LabelMaterials head(vol, 1.0);
+    SizingFieldParams sp;
+    sp.lipschitz = 0.5;
+    sp.min_size = 4;
+    sp.max_size = 32;
+    const double a = now();
+    const SizingFieldResult f = computeSizingField(head, sp, np);
+    const OctreeBccResult o = generateOctreeBcc(head.grid(), f.field, OctreeBccParams{}, np);
+    CleaveParams cp;
+    cp.strip_exterior = 0;
+    const CleaveResult r = cleave(o.background, head, cp, np);
+    const std::string line = row("octree min 4, L 0.5 (adaptive net)", r.mesh, now() - a, *vol);
+    out << line;
+    std::cout << line << std::flush;
+  }
+
+  // Spheres: indicator functions; the labels are their argmax per voxel.
+  std::vector<ScalarVolume> vols;
+  for (int i = 1; i <= 4; ++i) vols.push_back(readScalarVolume(spheresDir + "/spheres" + std::to_string(i) + ".nrrd"));
+  LabelVolume argmax;
+  argmax.allocate(vols[0].grid, 0);
+  for (size_t v = 0; v < argmax.data.size(); ++v) {
+    int best = 0;
+    for (int m = 1; m < 4; ++m)
+      if (vols[size_t(m)].data[v] > vols[size_t(best)].data[v]) best = m;
+    argmax.data[v] = best + 1;
+  }
+  const IndicatorMaterials spheres(std::move(vols), {1, 2, 3, 4});
+  out << "spheres1..4 (28^3 indicator functions; certificate against their argmax labels):\n" << kHeader;
+  for (double cell : {2.0, 1.0, 0.5}) {
+    char w[64];
+    std::snprintf(w, sizeof w, "regular %.1f voxels", cell);
+    out << regular(w, spheres, argmax, cell, false);
+  }
+
+  // Random label volumes: Voronoi cells plus one-voxel sheets, 32^3, blend_sigma 1, 1.5-voxel cells.
+  out << "random label volumes (32^3 Voronoi cells of 2-6 labels plus two one-voxel sheets), regular 1.5 voxels:\n"
+      << kHeader;
+  std::mt19937 rng(11);
+  for (int c = 0; c < 6; ++c) {
+    auto lv = std::make_shared<const LabelVolume>(randomLabels(rng, 32));
+    const LabelMaterials mats(lv, 1.0);
+    out << regular("random seed 11 case " + std::to_string(c), mats, *lv, 1.5, false);
+  }
+
+  std::cout << out.str().substr(out.str().find("spheres1..4"));
+  std::ofstream(results) << out.str();
+  return 0;
+}
