@@ -3,7 +3,7 @@
 // the adaptive net's octree, plus the levers: cell size and blend_sigma), Cleaver's spheres (the
 // certificate compares with the argmax labels of the indicator functions) and random label
 // volumes. Per run: output tets, meshing and certificate seconds, worst per-label volume error,
-// components lost / split / merged / spurious, spurious contact area, non-manifold interface
+// components lost / lost_small / split / merged / spurious, spurious contact area, non-manifold interface
 // edges and vertices, voxel agreement.
 //
 //   fidelity_benchmark [RESULTS_FILE] [SPHERES_DIR]
@@ -35,7 +35,7 @@ double now() {
 }
 
 const char* kHeader =
-    "# run                                      tets   mesh_s  cert_s  worst_vol_err      lost split merged spur "
+    "# run                                      tets   mesh_s  cert_s  worst_vol_err      lost small split merged spur "
     "spur_contact_mm2  nm_edges nm_verts agree\n";
 
 std::string row(const std::string& what, const TetMesh& mesh, double meshSeconds, const LabelVolume& labels) {
@@ -44,9 +44,9 @@ std::string row(const std::string& what, const TetMesh& mesh, double meshSeconds
   const CertificateResult c = certifyMesh(mesh, labels, np);
   const double certSeconds = now() - a;
   char buf[512];
-  std::snprintf(buf, sizeof buf, "%-38s %10zu %7.2f %7.2f %+8.2f%% (L%-3d) %5d %5d %6d %4d %16.1f %9lld %8lld %.4f\n",
+  std::snprintf(buf, sizeof buf, "%-38s %10zu %7.2f %7.2f %+8.2f%% (L%-3d) %5d %5d %5d %6d %4d %16.1f %9lld %8lld %.4f\n",
                 what.c_str(), mesh.numTets(), meshSeconds, certSeconds, 100.0 * c.worstRelError, c.worstLabel, c.lost,
-                c.split, c.merged, c.spurious, c.spuriousContactArea, static_cast<long long>(c.nonmanifoldEdges),
+                c.lostSmall, c.split, c.merged, c.spurious, c.spuriousContactArea, static_cast<long long>(c.nonmanifoldEdges),
                 static_cast<long long>(c.nonmanifoldVertices), c.agreement);
   return buf;
 }
