@@ -12,256 +12,13 @@
 #include <unordered_map>
 
 #include "Algorithms/Core/Errors.h"
+#include "LabelTopology.h"
 
 namespace tetflow {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int32_t kOutside = -1;   // neighbour across a boundary face
-constexpr int32_t kCrowded = -2;   // neighbour across a face of more than two tets
 constexpr double kExcludedCoverage = 0.01;
-
-// Union-find whose root is always the smallest index of its set (deterministic numbering).
-struct DisjointSets {
-  std::vector<int32_t> parent;
-  explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int32_t find(int32_t x) {
-    while (parent[static_cast<size_t>(x)] != x) {
-      parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
-      x = parent[static_cast<size_t>(x)];
-    }
-    return x;
-  }
-  void unite(int32_t a, int32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    if (a < b) std::swap(a, b);
-    parent[static_cast<size_t>(a)] = b;
-  }
-};
-
-struct PlaceAcc {
-  double weight = 0.0;
-  Vec3 sum{0, 0, 0};
-  Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
-  void add(const Vec3& p, double w) {
-    weight += w;
-    sum = sum + w * p;
-    extend(p);
-  }
-  void extend(const Vec3& p) {
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], p[a]);
-      hi[a] = std::max(hi[a], p[a]);
-    }
-  }
-  void merge(const PlaceAcc& o) {
-    weight += o.weight;
-    sum = sum + o.sum;
-    extend(o.lo);
-    extend(o.hi);
-  }
-  Place place() const {
-    Place p;
-    p.centroid = weight > 0 ? (1.0 / weight) * sum : sum;
-    p.boxMin = weight > 0 ? lo : Vec3{0, 0, 0};
-    p.boxMax = weight > 0 ? hi : Vec3{0, 0, 0};
-    return p;
-  }
-};
-
-uint64_t pairKey(int32_t a, int32_t b) {
-  if (a > b) std::swap(a, b);
-  return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
-}
-std::pair<int32_t, int32_t> pairOf(uint64_t k) {
-  return {static_cast<int32_t>(static_cast<uint32_t>(k >> 32)), static_cast<int32_t>(static_cast<uint32_t>(k))};
-}
-
-// ---------------------------------------------------------------------------------------------
-// Image side
-// ---------------------------------------------------------------------------------------------
-struct ImageComponent {
-  int32_t label = 0;
-  int64_t voxels = 0;
-  int cores = 0;
-  PlaceAcc where; // voxel centres, weight 1 each
-};
-
-struct ImageSide {
-  std::vector<int32_t> comp; // per voxel
-  std::vector<ImageComponent> comps;
-  std::map<uint64_t, std::pair<double, PlaceAcc>> contacts; // area [mm^2], face centres
-};
-
-ImageSide analyzeImage(const LabelVolume& v, Progress& progress) {
-  const auto& g = v.grid;
-  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
-  const int64_t n = g.voxelCount();
-  if (n >= std::numeric_limits<int32_t>::max())
-    throw InputError("label volume of " + std::to_string(n) + " voxels is too large for the certificate (limit 2^31)");
-  const auto& lab = v.data;
-  auto idx = [&](int64_t i, int64_t j, int64_t k) { return i + nx * (j + ny * k); };
-
-  // 26-connected components of equal labels; cores and their 26-connected components.
-  DisjointSets all(static_cast<size_t>(n)), cores(static_cast<size_t>(n));
-  std::vector<uint8_t> isCore(static_cast<size_t>(n), 0);
-#pragma omp parallel for schedule(static)
-  for (int64_t k = 0; k < nz; ++k)
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
-        auto same = [&](int64_t a, int64_t b, int64_t c) {
-          if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) return true;
-          return lab[static_cast<size_t>(idx(a, b, c))] == L;
-        };
-        isCore[static_cast<size_t>(idx(i, j, k))] =
-            same(i - 1, j, k) && same(i + 1, j, k) && same(i, j - 1, k) && same(i, j + 1, k) &&
-            same(i, j, k - 1) && same(i, j, k + 1);
-      }
-  progress.checkCancel();
-  for (int64_t k = 0; k < nz; ++k) {
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int64_t p = idx(i, j, k);
-        const int32_t L = lab[static_cast<size_t>(p)];
-        // The 13 neighbours before p in scan order.
-        for (int dk = -1; dk <= 0; ++dk)
-          for (int dj = -1; dj <= 1; ++dj)
-            for (int di = -1; di <= 1; ++di) {
-              if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;
-              const int64_t a = i + di, b = j + dj, c = k + dk;
-              if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny) continue;
-              const int64_t q = idx(a, b, c);
-              if (lab[static_cast<size_t>(q)] != L) continue;
-              all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
-              if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
-                cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
-            }
-      }
-    if (k % 16 == 0) progress.checkCancel();
-  }
-
-  ImageSide s;
-  s.comp.assign(static_cast<size_t>(n), -1);
-  std::vector<int32_t> rootComp(static_cast<size_t>(n), -1);
-  std::vector<uint8_t> coreCounted(static_cast<size_t>(n), 0);
-  for (int64_t k = 0; k < nz; ++k)
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int64_t p = idx(i, j, k);
-        const int32_t r = all.find(static_cast<int32_t>(p));
-        int32_t& c = rootComp[static_cast<size_t>(r)];
-        if (c < 0) {
-          c = static_cast<int32_t>(s.comps.size());
-          s.comps.push_back({});
-          s.comps.back().label = lab[static_cast<size_t>(p)];
-        }
-        s.comp[static_cast<size_t>(p)] = c;
-        ImageComponent& ic = s.comps[static_cast<size_t>(c)];
-        ++ic.voxels;
-        ic.where.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
-        if (isCore[static_cast<size_t>(p)]) {
-          const int32_t cr = cores.find(static_cast<int32_t>(p));
-          if (!coreCounted[static_cast<size_t>(cr)]) {
-            coreCounted[static_cast<size_t>(cr)] = 1;
-            ++ic.cores;
-          }
-        }
-      }
-  progress.checkCancel();
-
-  // Contacts across voxel faces.
-  const double faceArea[3] = {g.spacing[1] * g.spacing[2], g.spacing[0] * g.spacing[2],
-                              g.spacing[0] * g.spacing[1]};
-  for (int64_t k = 0; k < nz; ++k)
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
-        const int64_t nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
-        for (int a = 0; a < 3; ++a) {
-          if (nb[a][0] >= nx || nb[a][1] >= ny || nb[a][2] >= nz) continue;
-          const int32_t M = lab[static_cast<size_t>(idx(nb[a][0], nb[a][1], nb[a][2]))];
-          if (M == L) continue;
-          auto& e = s.contacts[pairKey(L, M)];
-          e.first += faceArea[a];
-          const double h[3] = {a == 0 ? 0.5 : 0.0, a == 1 ? 0.5 : 0.0, a == 2 ? 0.5 : 0.0};
-          e.second.add(g.indexToPhysical(double(i) + h[0], double(j) + h[1], double(k) + h[2]), faceArea[a]);
-        }
-      }
-  return s;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Mesh side
-// ---------------------------------------------------------------------------------------------
-struct FaceRec {
-  std::array<int32_t, 3> v;
-  int64_t tf; // 4 * tet + face
-  bool operator<(const FaceRec& o) const { return v != o.v ? v < o.v : tf < o.tf; }
-};
-
-// Faces of tet (a,b,c,d) by the index of the vertex they omit: face f omits vertex f.
-constexpr int kFaceVerts[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
-
-std::vector<int32_t> faceNeighbours(const TetMesh& mesh, Progress& progress) {
-  const int64_t n = static_cast<int64_t>(mesh.numTets());
-  std::vector<FaceRec> faces(static_cast<size_t>(4 * n));
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < n; ++t)
-    for (int f = 0; f < 4; ++f) {
-      FaceRec& r = faces[static_cast<size_t>(4 * t + f)];
-      const auto& q = mesh.tets[static_cast<size_t>(t)];
-      r.v = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
-      std::sort(r.v.begin(), r.v.end());
-      r.tf = 4 * t + f;
-    }
-  progress.checkCancel();
-  __gnu_parallel::sort(faces.begin(), faces.end());
-  progress.checkCancel();
-  std::vector<int32_t> nb(static_cast<size_t>(4 * n), kOutside);
-  for (size_t i = 0; i < faces.size();) {
-    size_t j = i + 1;
-    while (j < faces.size() && faces[j].v == faces[i].v) ++j;
-    if (j - i == 2) {
-      nb[static_cast<size_t>(faces[i].tf)] = static_cast<int32_t>(faces[i + 1].tf / 4);
-      nb[static_cast<size_t>(faces[i + 1].tf)] = static_cast<int32_t>(faces[i].tf / 4);
-    } else if (j - i > 2) {
-      for (size_t a = i; a < j; ++a) nb[static_cast<size_t>(faces[a].tf)] = kCrowded;
-    }
-    i = j;
-  }
-  return nb;
-}
-
-Vec3 centroidOf(const TetMesh& m, size_t t) {
-  const auto& q = m.tets[t];
-  return 0.25 * (m.points[static_cast<size_t>(q[0])] + m.points[static_cast<size_t>(q[1])] +
-                 m.points[static_cast<size_t>(q[2])] + m.points[static_cast<size_t>(q[3])]);
-}
-
-double faceArea(const TetMesh& m, size_t t, int f, Vec3* centre) {
-  const auto& q = m.tets[t];
-  const Vec3& a = m.points[static_cast<size_t>(q[kFaceVerts[f][0]])];
-  const Vec3& b = m.points[static_cast<size_t>(q[kFaceVerts[f][1]])];
-  const Vec3& c = m.points[static_cast<size_t>(q[kFaceVerts[f][2]])];
-  *centre = (1.0 / 3.0) * (a + b + c);
-  return 0.5 * norm(cross(b - a, c - a));
-}
-
-// Continuous voxel-index coordinates of a physical point.
-struct IndexFrame {
-  GridGeometry g;
-  Vec3 toIndex(const Vec3& p) const {
-    const Vec3 d = p - g.origin;
-    Vec3 r;
-    for (int a = 0; a < 3; ++a)
-      r[a] = (g.direction[0][a] * d[0] + g.direction[1][a] * d[1] + g.direction[2][a] * d[2]) / g.spacing[a];
-    return r;
-  }
-};
 
 } // namespace
 
@@ -292,15 +49,15 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   if (mesh.numTets() >= size_t(std::numeric_limits<int32_t>::max()) / 4)
     throw InputError("mesh of " + std::to_string(mesh.numTets()) + " tets is too large for the certificate");
   const auto& g = labels.grid;
-  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
+  const int64_t nx = g.dims[0], ny = g.dims[1];
   const int64_t nVox = g.voxelCount();
   const int64_t nTets = static_cast<int64_t>(mesh.numTets());
 
   progress.beginStage("image");
-  ImageSide img = analyzeImage(labels, progress);
+  LabelImageTopology img = analyzeLabelImage(labels, progress);
 
   progress.beginStage("mesh");
-  const std::vector<int32_t> nb = faceNeighbours(mesh, progress);
+  const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
   DisjointSets meshSets(mesh.numTets());
   for (int64_t t = 0; t < nTets; ++t)
     for (int f = 0; f < 4; ++f) {
@@ -328,7 +85,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       meshComp[static_cast<size_t>(t)] = c;
       auto& mc = mcomps[static_cast<size_t>(c)];
       ++mc.tets;
-      mc.where.add(centroidOf(mesh, size_t(t)), std::abs(mesh.tetVolume(size_t(t))));
+      mc.where.add(tetCentroid(mesh, size_t(t)), std::abs(mesh.tetVolume(size_t(t))));
     }
   }
   std::map<uint64_t, std::pair<double, PlaceAcc>> meshContacts;
@@ -339,8 +96,8 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       const int32_t a = mesh.materials[static_cast<size_t>(t)], b = mesh.materials[static_cast<size_t>(o)];
       if (a == b) continue;
       Vec3 c;
-      const double area = faceArea(mesh, size_t(t), f, &c);
-      auto& e = meshContacts[pairKey(a, b)];
+      const double area = tetFaceArea(mesh, size_t(t), f, &c);
+      auto& e = meshContacts[labelPairKey(a, b)];
       e.first += area;
       e.second.add(c, area);
     }
@@ -440,7 +197,6 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   for (const auto& c : mcomps) ++byLabel[c.label].meshComponents;
 
   // --- votes: every tet for the image component of its label at / next to its centroid -------
-  const Vec3 sp = g.spacing;
   std::vector<int32_t> vote(mesh.numTets(), -1);
   std::vector<int32_t> centroidVoxelComp(mesh.numTets(), -1);
 #pragma omp parallel for schedule(static)
@@ -452,27 +208,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       r[a] = std::clamp<int64_t>(static_cast<int64_t>(std::llround(c[a])), 0, g.dims[a] - 1);
     const int64_t v = r[0] + nx * (r[1] + ny * r[2]);
     centroidVoxelComp[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(v)];
-    const int32_t L = mesh.materials[static_cast<size_t>(t)];
-    if (labels.data[static_cast<size_t>(v)] == L) {
-      vote[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(v)];
-      continue;
-    }
-    double best = kInf;
-    for (int dk = -1; dk <= 1; ++dk)
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) {
-          const int64_t a = r[0] + di, b = r[1] + dj, e = r[2] + dk;
-          if (a < 0 || b < 0 || e < 0 || a >= nx || b >= ny || e >= nz) continue;
-          const int64_t w = a + nx * (b + ny * e);
-          if (labels.data[static_cast<size_t>(w)] != L) continue;
-          const double dx = (double(a) - c[0]) * sp[0], dy = (double(b) - c[1]) * sp[1],
-                       dz = (double(e) - c[2]) * sp[2];
-          const double d2 = dx * dx + dy * dy + dz * dz;
-          if (d2 < best) {
-            best = d2;
-            vote[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(w)];
-          }
-        }
+    vote[static_cast<size_t>(t)] = voteImageComponent(labels, img.comp, c, mesh.materials[static_cast<size_t>(t)]);
   }
   progress.checkCancel();
   std::unordered_map<uint64_t, double> overlap; // (mesh comp, image comp) -> volume
@@ -569,7 +305,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   // --- contacts ---------------------------------------------------------------------------
   for (const auto& [k, e] : meshContacts) {
-    const auto [a, b] = pairOf(k);
+    const auto [a, b] = labelPairOf(k);
     if (excluded[a] || excluded[b]) continue;
     auto it = img.contacts.find(k);
     if (it != img.contacts.end()) continue;
@@ -582,7 +318,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     res.spuriousContactArea += e.first;
   }
   for (const auto& [k, e] : img.contacts) {
-    const auto [a, b] = pairOf(k);
+    const auto [a, b] = labelPairOf(k);
     if (excluded[a] || excluded[b]) continue;
     if (meshContacts.count(k)) continue;
     ContactIssue ci;
@@ -603,7 +339,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
         if (o < 0) continue;
         const int32_t a = mesh.materials[size_t(t)], b = mesh.materials[size_t(o)];
         if (a == b) continue;
-        const uint64_t k = pairKey(a, b);
+        const uint64_t k = labelPairKey(a, b);
         if (!img.contacts.count(k) && !excluded[a] && !excluded[b]) res.flags[size_t(t)] |= 16;
       }
   }
@@ -626,7 +362,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       const int32_t o = nb[static_cast<size_t>(4 * t + f)];
       if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
       const auto& q = mesh.tets[size_t(t)];
-      const int32_t v[3] = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
+      const int32_t v[3] = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
       for (int e = 0; e < 3; ++e) {
         const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
         er.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
@@ -643,7 +379,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
         ++res.nonmanifoldEdges;
         lastBadEdge = er[i].edge;
         if (res.nonmanifoldPlaces.size() < 20) {
-          const auto [a, b] = pairOf(er[i].edge);
+          const auto [a, b] = labelPairOf(er[i].edge);
           res.nonmanifoldPlaces.push_back(0.5 * (mesh.points[size_t(a)] + mesh.points[size_t(b)]));
         }
       }

@@ -65,14 +65,9 @@
 #include "Algorithms/Core/Report.h"
 #include "Algorithms/Core/TetMesh.h"
 #include "Algorithms/Core/Volume.h"
+#include "LabelTopology.h"
 
 namespace tetflow {
-
-struct Place {
-  Vec3 centroid{0, 0, 0}; // mm
-  Vec3 boxMin{0, 0, 0};   // mm
-  Vec3 boxMax{0, 0, 0};   // mm
-};
 
 enum class ComponentIssueKind { Lost, LostSmall, Split, Merged, Spurious };
 const char* componentIssueName(ComponentIssueKind k); // "lost", "lost_small", ...

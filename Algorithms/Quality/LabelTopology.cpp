@@ -1,0 +1,199 @@
+#include "LabelTopology.h"
+
+#include <algorithm>
+#include <cmath>
+#include <parallel/algorithm>
+
+#include "Algorithms/Core/Errors.h"
+
+namespace tetflow {
+
+uint64_t labelPairKey(int32_t a, int32_t b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
+}
+std::pair<int32_t, int32_t> labelPairOf(uint64_t k) {
+  return {static_cast<int32_t>(static_cast<uint32_t>(k >> 32)), static_cast<int32_t>(static_cast<uint32_t>(k))};
+}
+
+LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
+  const auto& g = v.grid;
+  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
+  const int64_t n = g.voxelCount();
+  if (n >= std::numeric_limits<int32_t>::max())
+    throw InputError("label volume of " + std::to_string(n) + " voxels is too large for the certificate (limit 2^31)");
+  const auto& lab = v.data;
+  auto idx = [&](int64_t i, int64_t j, int64_t k) { return i + nx * (j + ny * k); };
+
+  // 26-connected components of equal labels; cores and their 26-connected components.
+  DisjointSets all(static_cast<size_t>(n)), cores(static_cast<size_t>(n));
+  std::vector<uint8_t> isCore(static_cast<size_t>(n), 0);
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
+        auto same = [&](int64_t a, int64_t b, int64_t c) {
+          if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) return true;
+          return lab[static_cast<size_t>(idx(a, b, c))] == L;
+        };
+        isCore[static_cast<size_t>(idx(i, j, k))] =
+            same(i - 1, j, k) && same(i + 1, j, k) && same(i, j - 1, k) && same(i, j + 1, k) &&
+            same(i, j, k - 1) && same(i, j, k + 1);
+      }
+  progress.checkCancel();
+  for (int64_t k = 0; k < nz; ++k) {
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int64_t p = idx(i, j, k);
+        const int32_t L = lab[static_cast<size_t>(p)];
+        // The 13 neighbours before p in scan order.
+        for (int dk = -1; dk <= 0; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;
+              const int64_t a = i + di, b = j + dj, c = k + dk;
+              if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny) continue;
+              const int64_t q = idx(a, b, c);
+              if (lab[static_cast<size_t>(q)] != L) continue;
+              all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
+              if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
+                cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
+            }
+      }
+    if (k % 16 == 0) progress.checkCancel();
+  }
+
+  LabelImageTopology s;
+  s.comp.assign(static_cast<size_t>(n), -1);
+  std::vector<int32_t> rootComp(static_cast<size_t>(n), -1);
+  std::vector<uint8_t> coreCounted(static_cast<size_t>(n), 0);
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int64_t p = idx(i, j, k);
+        const int32_t r = all.find(static_cast<int32_t>(p));
+        int32_t& c = rootComp[static_cast<size_t>(r)];
+        if (c < 0) {
+          c = static_cast<int32_t>(s.comps.size());
+          s.comps.push_back({});
+          s.comps.back().label = lab[static_cast<size_t>(p)];
+        }
+        s.comp[static_cast<size_t>(p)] = c;
+        ImageComponent& ic = s.comps[static_cast<size_t>(c)];
+        ++ic.voxels;
+        ic.where.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
+        if (isCore[static_cast<size_t>(p)]) {
+          const int32_t cr = cores.find(static_cast<int32_t>(p));
+          if (!coreCounted[static_cast<size_t>(cr)]) {
+            coreCounted[static_cast<size_t>(cr)] = 1;
+            ++ic.cores;
+          }
+        }
+      }
+  progress.checkCancel();
+
+  // Contacts across voxel faces.
+  const double faceArea[3] = {g.spacing[1] * g.spacing[2], g.spacing[0] * g.spacing[2],
+                              g.spacing[0] * g.spacing[1]};
+  for (int64_t k = 0; k < nz; ++k)
+    for (int64_t j = 0; j < ny; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
+        const int64_t nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
+        for (int a = 0; a < 3; ++a) {
+          if (nb[a][0] >= nx || nb[a][1] >= ny || nb[a][2] >= nz) continue;
+          const int32_t M = lab[static_cast<size_t>(idx(nb[a][0], nb[a][1], nb[a][2]))];
+          if (M == L) continue;
+          auto& e = s.contacts[labelPairKey(L, M)];
+          e.first += faceArea[a];
+          const double h[3] = {a == 0 ? 0.5 : 0.0, a == 1 ? 0.5 : 0.0, a == 2 ? 0.5 : 0.0};
+          e.second.add(g.indexToPhysical(double(i) + h[0], double(j) + h[1], double(k) + h[2]), faceArea[a]);
+        }
+      }
+  return s;
+}
+
+namespace {
+struct FaceRec {
+  std::array<int32_t, 3> v;
+  int64_t tf; // 4 * tet + face
+  bool operator<(const FaceRec& o) const { return v != o.v ? v < o.v : tf < o.tf; }
+};
+
+} // namespace
+
+std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) {
+  const int64_t n = static_cast<int64_t>(mesh.numTets());
+  std::vector<FaceRec> faces(static_cast<size_t>(4 * n));
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t)
+    for (int f = 0; f < 4; ++f) {
+      FaceRec& r = faces[static_cast<size_t>(4 * t + f)];
+      const auto& q = mesh.tets[static_cast<size_t>(t)];
+      r.v = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
+      std::sort(r.v.begin(), r.v.end());
+      r.tf = 4 * t + f;
+    }
+  progress.checkCancel();
+  __gnu_parallel::sort(faces.begin(), faces.end());
+  progress.checkCancel();
+  std::vector<int32_t> nb(static_cast<size_t>(4 * n), kNoNeighbour);
+  for (size_t i = 0; i < faces.size();) {
+    size_t j = i + 1;
+    while (j < faces.size() && faces[j].v == faces[i].v) ++j;
+    if (j - i == 2) {
+      nb[static_cast<size_t>(faces[i].tf)] = static_cast<int32_t>(faces[i + 1].tf / 4);
+      nb[static_cast<size_t>(faces[i + 1].tf)] = static_cast<int32_t>(faces[i].tf / 4);
+    } else if (j - i > 2) {
+      for (size_t a = i; a < j; ++a) nb[static_cast<size_t>(faces[a].tf)] = kCrowdedFace;
+    }
+    i = j;
+  }
+  return nb;
+}
+
+Vec3 tetCentroid(const TetMesh& m, size_t t) {
+  const auto& q = m.tets[t];
+  return 0.25 * (m.points[static_cast<size_t>(q[0])] + m.points[static_cast<size_t>(q[1])] +
+                 m.points[static_cast<size_t>(q[2])] + m.points[static_cast<size_t>(q[3])]);
+}
+
+double tetFaceArea(const TetMesh& m, size_t t, int f, Vec3* centre) {
+  const auto& q = m.tets[t];
+  const Vec3& a = m.points[static_cast<size_t>(q[kTetFaceVertices[f][0]])];
+  const Vec3& b = m.points[static_cast<size_t>(q[kTetFaceVertices[f][1]])];
+  const Vec3& c = m.points[static_cast<size_t>(q[kTetFaceVertices[f][2]])];
+  *centre = (1.0 / 3.0) * (a + b + c);
+  return 0.5 * norm(cross(b - a, c - a));
+}
+
+// Continuous voxel-index coordinates of a physical point.
+int32_t voteImageComponent(const LabelVolume& labels, const std::vector<int32_t>& comp, const Vec3& c, int32_t L) {
+  const auto& g = labels.grid;
+  const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
+  int64_t r[3];
+  for (int a = 0; a < 3; ++a) r[a] = std::clamp<int64_t>(static_cast<int64_t>(std::llround(c[a])), 0, g.dims[a] - 1);
+  const int64_t v = r[0] + nx * (r[1] + ny * r[2]);
+  if (labels.data[static_cast<size_t>(v)] == L) return comp[static_cast<size_t>(v)];
+  double best = std::numeric_limits<double>::infinity();
+  int32_t vote = -1;
+  for (int dk = -1; dk <= 1; ++dk)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di) {
+        const int64_t a = r[0] + di, b = r[1] + dj, e = r[2] + dk;
+        if (a < 0 || b < 0 || e < 0 || a >= nx || b >= ny || e >= nz) continue;
+        const int64_t w = a + nx * (b + ny * e);
+        if (labels.data[static_cast<size_t>(w)] != L) continue;
+        const double dx = (double(a) - c[0]) * g.spacing[0], dy = (double(b) - c[1]) * g.spacing[1],
+                     dz = (double(e) - c[2]) * g.spacing[2];
+        const double d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 < best) {
+          best = d2;
+          vote = comp[static_cast<size_t>(w)];
+        }
+      }
+  return vote;
+}
+
+} // namespace tetflow
