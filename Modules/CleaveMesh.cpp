@@ -1,9 +1,11 @@
 // CleaveMesh: lattice cleaving (Algorithms/Cleaving/Cleaver.h) of a background mesh into a
 // conforming multimaterial mesh.
 #include <cmath>
+#include <map>
 #include <sstream>
 
 #include "Algorithms/Cleaving/Cleaver.h"
+#include "Algorithms/Cleaving/LabelRepair.h"
 #include "StandardModules.h"
 
 namespace tetflow {
@@ -41,7 +43,27 @@ public:
       p.strip_exterior = static_cast<int32_t>(v);
     }
     CleaveResult r = cleave(bg, *mats, p, ctx.progress());
+    LabelRepairParams rp;
+    rp.contacts = rp.fragments = ctx.getBool("repair_labels");
+    rp.fragment_voxels = ctx.getDouble("fragment_voxels");
+    LabelRepairStats repair;
+    if (rp.contacts) {
+      repair = repairLabels(r.mesh, *mats, rp, ctx.progress());
+      // The per-material figures after the repair (stripped labels have no tets left).
+      std::map<int32_t, std::pair<int64_t, double>> now;
+      for (size_t t = 0; t < r.mesh.numTets(); ++t) {
+        auto& e = now[r.mesh.materials[t]];
+        ++e.first;
+        e.second += r.mesh.tetVolume(t);
+      }
+      for (auto& m : r.materials)
+        if (!m.stripped) {
+          m.tets = now[m.label].first;
+          m.meshVolume = now[m.label].second;
+        }
+    }
     writeCleaveReport(r, ctx.report());
+    if (rp.contacts) writeLabelRepairReport(repair, ctx.report());
     ctx.report().set("background", bg.kind.empty() ? "unstructured" : "bcc_lattice");
     for (const auto& m : r.materials)
       if (m.lost()) {
@@ -78,7 +100,13 @@ void registerCleaveMesh(ModuleRegistry& r) {
               dbl("alpha_long", d.alpha_long, 0.0, 0.49, "", "violation threshold on long BCC edges, fraction of edge length"),
               dbl("xi", d.xi, 1e-6, 0.5, "", "unstructured backgrounds: alpha = (1/2 - xi) x shortest altitude (seed §5.5.2)"),
               dbl("blend_sigma", 1.0, 0.05, 10.0, "voxels", "smoothing of label volumes into indicator functions"),
-              strip};
+              strip,
+              makeParam("repair_labels", ParamType::Bool, true, "",
+                        "after cleaving, relabel tets (geometry unchanged) so that labels that never touch "
+                        "in the input do not share faces, and drop fragments: pieces smaller than "
+                        "fragment_voxels that are not the main piece of an image component"),
+              dbl("fragment_voxels", 1.0, 0.0, 1e6, "voxel volumes",
+                  "largest fragment the label repair may relabel")};
   m.summaryKeys = {"tets", "materials_lost"};
   m.factory = [] { return std::make_unique<CleaveMesh>(); };
   r.add(std::move(m));

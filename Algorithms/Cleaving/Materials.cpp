@@ -218,6 +218,21 @@ void IndicatorMaterials::sample(const Vec3& p, std::vector<MaterialSample>& out)
   }
 }
 
+LabelVolume IndicatorMaterials::dominantLabels() const {
+  LabelVolume v;
+  v.grid = grid_;
+  v.data.resize(volumes_[0].data.size());
+  const int64_t n = static_cast<int64_t>(v.data.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    size_t best = 0;
+    for (size_t m = 1; m < volumes_.size(); ++m)
+      if (volumes_[m].data[size_t(i)] > volumes_[best].data[size_t(i)]) best = m;
+    v.data[size_t(i)] = labels_[best];
+  }
+  return v;
+}
+
 std::string IndicatorMaterials::describe() const {
   return std::to_string(volumes_.size()) + " materials from indicator functions";
 }

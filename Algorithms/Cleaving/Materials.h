@@ -55,6 +55,9 @@ public:
   virtual void sample(const Vec3& p, std::vector<MaterialSample>& out) const = 0;
   virtual float absentValue() const { return 0.0f; }
   virtual std::string describe() const = 0;
+  // The input as labels on grid(): the label volume itself for LabelMaterials; for indicator
+  // functions the label of the largest one per voxel (ties to the lower material index).
+  virtual LabelVolume dominantLabels() const = 0;
 
 protected:
   std::vector<int32_t> labels_;
@@ -68,6 +71,7 @@ public:
   LabelMaterials(std::shared_ptr<const LabelVolume> volume, double blendSigma);
   void sample(const Vec3& p, std::vector<MaterialSample>& out) const override;
   std::string describe() const override;
+  LabelVolume dominantLabels() const override { return *volume_; }
   double blendSigma() const { return sigma_; }
 
 private:
@@ -87,6 +91,7 @@ public:
   void sample(const Vec3& p, std::vector<MaterialSample>& out) const override;
   float absentValue() const override { return -1e30f; } // never used: all are listed
   std::string describe() const override;
+  LabelVolume dominantLabels() const override;
 
 private:
   std::vector<ScalarVolume> volumes_;

@@ -1,8 +1,8 @@
 #include "LabelTopology.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
-#include <parallel/algorithm>
 
 #include "Algorithms/Core/Errors.h"
 
@@ -115,40 +115,66 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
 }
 
 namespace {
-struct FaceRec {
-  std::array<int32_t, 3> v;
-  int64_t tf; // 4 * tet + face
-  bool operator<(const FaceRec& o) const { return v != o.v ? v < o.v : tf < o.tf; }
+// A face in the bucket of its smallest vertex: the other two vertices and 4 * tet + face.
+struct BucketFace {
+  int32_t b, c;
+  int64_t tf;
+  bool operator<(const BucketFace& o) const {
+    return b != o.b ? b < o.b : (c != o.c ? c < o.c : tf < o.tf);
+  }
 };
 
 } // namespace
 
 std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) {
+  // Faces bucketed by their smallest vertex (a counting sort, linear), then each small bucket
+  // sorted and scanned: O(n) apart from the buckets' own sorts.
   const int64_t n = static_cast<int64_t>(mesh.numTets());
-  std::vector<FaceRec> faces(static_cast<size_t>(4 * n));
+  const size_t nP = mesh.numPoints();
+  auto sortedFace = [&](int64_t t, int f) {
+    const auto& q = mesh.tets[static_cast<size_t>(t)];
+    std::array<int32_t, 3> v{q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  std::vector<int64_t> offset(nP + 1, 0);
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < n; ++t)
-    for (int f = 0; f < 4; ++f) {
-      FaceRec& r = faces[static_cast<size_t>(4 * t + f)];
-      const auto& q = mesh.tets[static_cast<size_t>(t)];
-      r.v = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
-      std::sort(r.v.begin(), r.v.end());
-      r.tf = 4 * t + f;
-    }
+    for (int f = 0; f < 4; ++f)
+      std::atomic_ref<int64_t>(offset[static_cast<size_t>(sortedFace(t, f)[0]) + 1]).fetch_add(1, std::memory_order_relaxed);
+  for (size_t p = 0; p < nP; ++p) offset[p + 1] += offset[p];
   progress.checkCancel();
-  __gnu_parallel::sort(faces.begin(), faces.end());
+  std::vector<BucketFace> faces(static_cast<size_t>(4 * n));
+  {
+    // Filled in any order; every bucket is sorted completely below, so the result is the same.
+    std::vector<int64_t> pos(offset.begin(), offset.end() - 1);
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < n; ++t)
+      for (int f = 0; f < 4; ++f) {
+        const auto v = sortedFace(t, f);
+        const int64_t at =
+            std::atomic_ref<int64_t>(pos[static_cast<size_t>(v[0])]).fetch_add(1, std::memory_order_relaxed);
+        faces[static_cast<size_t>(at)] = {v[1], v[2], 4 * t + f};
+      }
+  }
   progress.checkCancel();
   std::vector<int32_t> nb(static_cast<size_t>(4 * n), kNoNeighbour);
-  for (size_t i = 0; i < faces.size();) {
-    size_t j = i + 1;
-    while (j < faces.size() && faces[j].v == faces[i].v) ++j;
-    if (j - i == 2) {
-      nb[static_cast<size_t>(faces[i].tf)] = static_cast<int32_t>(faces[i + 1].tf / 4);
-      nb[static_cast<size_t>(faces[i + 1].tf)] = static_cast<int32_t>(faces[i].tf / 4);
-    } else if (j - i > 2) {
-      for (size_t a = i; a < j; ++a) nb[static_cast<size_t>(faces[a].tf)] = kCrowdedFace;
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
+    const auto first = faces.begin() + offset[static_cast<size_t>(p)];
+    const auto last = faces.begin() + offset[static_cast<size_t>(p) + 1];
+    std::sort(first, last);
+    for (auto i = first; i != last;) {
+      auto j = i + 1;
+      while (j != last && j->b == i->b && j->c == i->c) ++j;
+      if (j - i == 2) {
+        nb[static_cast<size_t>(i->tf)] = static_cast<int32_t>((i + 1)->tf / 4);
+        nb[static_cast<size_t>((i + 1)->tf)] = static_cast<int32_t>(i->tf / 4);
+      } else if (j - i > 2) {
+        for (auto a = i; a != j; ++a) nb[static_cast<size_t>(a->tf)] = kCrowdedFace;
+      }
+      i = j;
     }
-    i = j;
   }
   return nb;
 }

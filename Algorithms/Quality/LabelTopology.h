@@ -22,8 +22,9 @@ inline constexpr int kTetFaceVertices[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, 
 inline constexpr int32_t kNoNeighbour = -1;  // across a boundary face
 inline constexpr int32_t kCrowdedFace = -2;  // across a face of more than two tets
 
-// nb[4 t + f] = the tet across face f of tet t, or kNoNeighbour / kCrowdedFace. Parallel sort of
-// the faces: O(n log n), 24 bytes per face while it runs. Checks cancellation.
+// nb[4 t + f] = the tet across face f of tet t, or kNoNeighbour / kCrowdedFace. Faces are bucketed
+// by their smallest vertex and matched within buckets (in parallel): O(n), 16 bytes per face while
+// it runs. Checks cancellation.
 std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress);
 
 Vec3 tetCentroid(const TetMesh& m, size_t t);

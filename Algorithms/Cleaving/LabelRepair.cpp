@@ -1,0 +1,353 @@
+#include "LabelRepair.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <queue>
+#include <set>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/Quality/LabelTopology.h"
+
+namespace tetflow {
+
+namespace {
+
+struct Allowed {
+  std::unordered_set<uint64_t> pairs;
+  bool ok(int32_t a, int32_t b) const { return a == b || pairs.count(labelPairKey(a, b)) > 0; }
+};
+
+// Value of every material (by label) at p.
+std::map<int32_t, float> valuesAt(const MaterialSet& mats, const Vec3& p) {
+  std::vector<MaterialSample> s;
+  mats.sample(p, s);
+  std::map<int32_t, float> v;
+  for (int32_t m = 0; m < mats.numMaterials(); ++m) v[mats.labels()[size_t(m)]] = mats.absentValue();
+  for (const auto& x : s) v[mats.labels()[size_t(x.material)]] = x.value;
+  return v;
+}
+
+struct Choice {
+  bool forbidden = false; // the tet has a forbidden face
+  bool has = false;       // an allowed label exists
+  int32_t label = 0;
+  double margin = 0.0;    // own value - best allowed value
+};
+
+Choice choose(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed& allowed,
+              const MaterialSet& mats, int64_t t) {
+  Choice c;
+  const int32_t own = mesh.materials[size_t(t)];
+  std::array<int32_t, 4> around{};
+  int na = 0;
+  for (int f = 0; f < 4; ++f) {
+    const int32_t o = nb[size_t(4 * t + f)];
+    if (o < 0) continue;
+    around[size_t(na++)] = mesh.materials[size_t(o)];
+    if (!allowed.ok(own, mesh.materials[size_t(o)])) c.forbidden = true;
+  }
+  if (!c.forbidden) return c;
+  const auto values = valuesAt(mats, tetCentroid(mesh, size_t(t)));
+  double best = -std::numeric_limits<double>::infinity();
+  for (const auto& [L, v] : values) {
+    if (L == own) continue;
+    bool ok = true;
+    for (int i = 0; i < na; ++i) ok = ok && allowed.ok(L, around[size_t(i)]);
+    if (ok && double(v) > best) {
+      best = double(v);
+      c.has = true;
+      c.label = L;
+    }
+  }
+  if (c.has) c.margin = double(values.at(own)) - best;
+  return c;
+}
+
+// Per root of `sets`: 1 when the piece is the primary piece of an image component (the one with the
+// most voting volume; ties to the smaller root).
+std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, const std::vector<int32_t>& vote) {
+  std::unordered_map<uint64_t, double> votes; // (image comp, root) -> volume
+  for (size_t t = 0; t < mesh.numTets(); ++t)
+    if (vote[t] >= 0)
+      votes[(uint64_t(uint32_t(vote[t])) << 32) | uint32_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(t));
+  std::vector<std::pair<uint64_t, double>> sorted(votes.begin(), votes.end());
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<uint8_t> primary(mesh.numTets(), 0);
+  for (size_t i = 0; i < sorted.size();) {
+    size_t j = i, best = i;
+    while (j < sorted.size() && (sorted[j].first >> 32) == (sorted[i].first >> 32)) {
+      if (sorted[j].second > sorted[best].second) best = j;
+      ++j;
+    }
+    primary[size_t(uint32_t(sorted[best].first))] = 1;
+    i = j;
+  }
+  return primary;
+}
+
+void countForbidden(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed& allowed, int64_t& faces,
+                    double& area) {
+  // Fixed blocks summed in order: the same total for any thread count.
+  constexpr int64_t kBlock = 65536;
+  const int64_t n = static_cast<int64_t>(mesh.numTets()), blocks = (n + kBlock - 1) / kBlock;
+  std::vector<int64_t> count(size_t(blocks), 0);
+  std::vector<double> sum(size_t(blocks), 0.0);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int64_t b = 0; b < blocks; ++b)
+    for (int64_t t = b * kBlock; t < std::min(n, (b + 1) * kBlock); ++t)
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[size_t(4 * t + f)];
+        if (o <= t || allowed.ok(mesh.materials[size_t(t)], mesh.materials[size_t(o)])) continue;
+        ++count[size_t(b)];
+        Vec3 c;
+        sum[size_t(b)] += tetFaceArea(mesh, size_t(t), f, &c);
+      }
+  faces = 0;
+  area = 0.0;
+  for (int64_t b = 0; b < blocks; ++b) {
+    faces += count[size_t(b)];
+    area += sum[size_t(b)];
+  }
+}
+
+// Tets with a forbidden face (ascending).
+std::vector<int64_t> forbiddenTets(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed& allowed) {
+  const int64_t n = static_cast<int64_t>(mesh.numTets());
+  std::vector<uint8_t> bad(size_t(n), 0);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[size_t(4 * t + f)];
+      if (o >= 0 && !allowed.ok(mesh.materials[size_t(t)], mesh.materials[size_t(o)])) bad[size_t(t)] = 1;
+    }
+  std::vector<int64_t> out;
+  for (int64_t t = 0; t < n; ++t)
+    if (bad[size_t(t)]) out.push_back(t);
+  return out;
+}
+
+} // namespace
+
+LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
+                              Progress& progress) {
+  if (!(params.fragment_voxels >= 0.0) || !std::isfinite(params.fragment_voxels))
+    throw InputError("fragment_voxels must be a number >= 0");
+  mesh.validateStructure("mesh");
+  LabelRepairStats st;
+  if (mesh.numTets() == 0 || (!params.contacts && !params.fragments && !params.connect)) return st;
+  const int64_t n = static_cast<int64_t>(mesh.numTets());
+
+  progress.beginStage("repair contacts");
+  const LabelVolume labels = materials.dominantLabels();
+  const LabelImageTopology img = analyzeLabelImage(labels, progress);
+  Allowed allowed;
+  for (const auto& [k, unused] : img.contacts) allowed.pairs.insert(k);
+  const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
+  countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
+
+  if (params.contacts && st.forbiddenFacesBefore > 0) {
+    using Item = std::pair<double, int64_t>; // (margin, tet): smallest margin first, then index
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+    for (int64_t t : forbiddenTets(mesh, nb, allowed)) {
+      const Choice c = choose(mesh, nb, allowed, materials, t);
+      if (c.has) queue.push({c.margin, t});
+    }
+    int64_t steps = 0;
+    while (!queue.empty()) {
+      const auto [margin, t] = queue.top();
+      queue.pop();
+      if ((++steps & 1023) == 0) progress.checkCancel();
+      const Choice c = choose(mesh, nb, allowed, materials, t);
+      if (!c.forbidden || !c.has) continue;
+      if (c.margin > margin + 1e-12) { // its neighbourhood changed: wait for its turn
+        queue.push({c.margin, t});
+        continue;
+      }
+      st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+      mesh.materials[size_t(t)] = c.label;
+      ++st.contactTets;
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[size_t(4 * t + f)];
+        if (o < 0) continue;
+        const Choice d = choose(mesh, nb, allowed, materials, o);
+        if (d.forbidden && d.has) queue.push({d.margin, o});
+      }
+    }
+    st.unresolvedTets = static_cast<int64_t>(forbiddenTets(mesh, nb, allowed).size());
+  }
+
+  if (params.connect) {
+    progress.beginStage("repair connections");
+    const IndexFrame frame{labels.grid};
+    std::vector<int32_t> vote(mesh.numTets());
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < n; ++t)
+      vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))),
+                                           mesh.materials[size_t(t)]);
+    for (int round = 0; round < 8; ++round) {
+      progress.checkCancel();
+      DisjointSets sets(mesh.numTets());
+      for (int64_t t = 0; t < n; ++t)
+        for (int f = 0; f < 4; ++f) {
+          const int32_t o = nb[size_t(4 * t + f)];
+          if (o > t && mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) sets.unite(int32_t(t), o);
+        }
+      // The primary piece of every image component, then the other pieces that vote for one, with
+      // their tets and the components they vote for.
+      const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+      std::map<int32_t, std::vector<int64_t>> tetsOf;
+      std::map<int32_t, std::set<int32_t>> compsOf;
+      for (int64_t t = 0; t < n; ++t) {
+        const int32_t r = sets.find(int32_t(t));
+        if (primary[size_t(r)] || vote[size_t(t)] < 0) continue;
+        compsOf[r].insert(vote[size_t(t)]);
+        tetsOf[r].push_back(t);
+      }
+      int64_t joined = 0;
+      for (const auto& [root, tets] : tetsOf) {
+        const int32_t L = mesh.materials[size_t(tets.front())];
+        const int32_t me = sets.find(root);
+        const std::set<int32_t>& comps = compsOf[root];
+        // Does tet q (label L) belong to another piece of one of our image components?
+        auto target = [&](int32_t q) {
+          return mesh.materials[size_t(q)] == L && sets.find(q) != me && vote[size_t(q)] >= 0 &&
+                 comps.count(vote[size_t(q)]) > 0;
+        };
+        auto allowedAs = [&](int32_t t, int32_t skip) {
+          for (int f = 0; f < 4; ++f) {
+            const int32_t o = nb[size_t(4 * t + f)];
+            if (o >= 0 && o != skip && !allowed.ok(L, mesh.materials[size_t(o)])) return false;
+          }
+          return true;
+        };
+        // Paths of one or two tets of other labels from this piece to another one, tet by tet of
+        // the piece (ascending), one-tet paths first.
+        std::vector<int32_t> path;
+        for (int64_t t : tets) {
+          for (int f = 0; f < 4 && path.empty(); ++f) {
+            const int32_t a = nb[size_t(4 * t + f)];
+            if (a < 0 || mesh.materials[size_t(a)] == L) continue;
+            for (int g2 = 0; g2 < 4 && path.empty(); ++g2) {
+              const int32_t b = nb[size_t(4 * a + g2)];
+              if (b >= 0 && target(b) && allowedAs(a, -1)) path = {a};
+            }
+            for (int g2 = 0; g2 < 4 && path.empty(); ++g2) {
+              const int32_t b = nb[size_t(4 * a + g2)];
+              if (b < 0 || mesh.materials[size_t(b)] == L) continue;
+              for (int h = 0; h < 4 && path.empty(); ++h) {
+                const int32_t c = nb[size_t(4 * b + h)];
+                if (c >= 0 && target(c) && allowedAs(a, b) && allowedAs(b, a)) path = {a, b};
+              }
+            }
+          }
+          if (!path.empty()) break;
+        }
+        if (path.empty()) continue;
+        for (int32_t q : path) {
+          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(q)));
+          mesh.materials[size_t(q)] = L;
+          vote[size_t(q)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(q))), L);
+          ++st.connectTets;
+          for (int f = 0; f < 4; ++f) {
+            const int32_t o = nb[size_t(4 * q + f)];
+            if (o >= 0 && mesh.materials[size_t(o)] == L) sets.unite(q, o);
+          }
+        }
+        ++joined;
+      }
+      st.connections += joined;
+      if (joined == 0) break;
+      ++st.connectRounds;
+    }
+  }
+  if (params.fragments) {
+    progress.beginStage("repair fragments");
+    const IndexFrame frame{labels.grid};
+    const double limit = params.fragment_voxels * labels.grid.voxelVolume();
+    std::vector<int32_t> vote(mesh.numTets());
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < n; ++t)
+      vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))),
+                                           mesh.materials[size_t(t)]);
+    for (int round = 0; round < 8; ++round) {
+      progress.checkCancel();
+      DisjointSets sets(mesh.numTets());
+      for (int64_t t = 0; t < n; ++t)
+        for (int f = 0; f < 4; ++f) {
+          const int32_t o = nb[size_t(4 * t + f)];
+          if (o > t && mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) sets.unite(int32_t(t), o);
+        }
+      // Pieces (by root), their volume, and the primary piece of every image component.
+      std::vector<double> volume(mesh.numTets(), 0.0);
+      for (int64_t t = 0; t < n; ++t) volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
+      const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+      // Candidates: small, not primary. Their outer faces by neighbour label.
+      std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
+      std::vector<int64_t> candidateTets;
+      for (int64_t t = 0; t < n; ++t) {
+        const int32_t r = sets.find(int32_t(t));
+        if (primary[size_t(r)] || volume[size_t(r)] >= limit) continue;
+        candidateTets.push_back(t);
+        auto& b = border[r];
+        for (int f = 0; f < 4; ++f) {
+          const int32_t o = nb[size_t(4 * t + f)];
+          if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
+          Vec3 c;
+          b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f, &c);
+        }
+      }
+      std::map<int32_t, int32_t> target; // root -> new label
+      int64_t kept = 0;
+      for (const auto& [r, b] : border) {
+        int32_t best = 0;
+        double bestArea = -1.0;
+        for (const auto& [L, area] : b) {
+          bool ok = true;
+          for (const auto& [M, unused] : b) ok = ok && allowed.ok(L, M);
+          if (ok && area > bestArea) {
+            bestArea = area;
+            best = L;
+          }
+        }
+        if (bestArea > 0.0) target[r] = best;
+        else ++kept;
+      }
+      st.keptSmallPieces = kept;
+      if (target.empty()) break;
+      ++st.fragmentRounds;
+      st.fragments += static_cast<int64_t>(target.size());
+      for (int64_t t : candidateTets) {
+        auto it = target.find(sets.find(int32_t(t)));
+        if (it == target.end()) continue;
+        mesh.materials[size_t(t)] = it->second;
+        st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+        ++st.fragmentTets;
+        vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
+      }
+    }
+  }
+  countForbidden(mesh, nb, allowed, st.forbiddenFacesAfter, st.forbiddenAreaAfter);
+  progress.endStage();
+  return st;
+}
+
+void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
+  report.set("repair_forbidden_faces_before", s.forbiddenFacesBefore);
+  report.set("repair_forbidden_area_before_mm2", s.forbiddenAreaBefore);
+  report.set("repair_forbidden_faces_after", s.forbiddenFacesAfter);
+  report.set("repair_forbidden_area_after_mm2", s.forbiddenAreaAfter);
+  report.set("repair_contact_tets", s.contactTets);
+  report.set("repair_unresolved_tets", s.unresolvedTets);
+  report.set("repair_fragments", s.fragments);
+  report.set("repair_fragment_tets", s.fragmentTets);
+  report.set("repair_kept_small_pieces", s.keptSmallPieces);
+  report.set("repair_connections", s.connections);
+  report.set("repair_connect_tets", s.connectTets);
+  report.set("repair_relabelled_volume_mm3", s.relabelledVolume);
+}
+
+} // namespace tetflow

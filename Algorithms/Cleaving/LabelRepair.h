@@ -1,0 +1,64 @@
+#pragma once
+// Label repair after cleaving: the cleaved mesh keeps its geometry (points and tets untouched, so
+// validity and every dihedral angle stay exactly as they are); only tet labels change, where the
+// mesh contradicts the input's topology as the certificate (Algorithms/Quality/Certificate.h)
+// would see it. The input is MaterialSet::dominantLabels(): the label volume, or the argmax of the
+// indicator functions.
+//
+// 1. Contacts. Two labels may share a face only when some face-adjacent voxel pair of the input
+//    carries them. A tet with a face between labels that never touch is relabelled to the label
+//    whose indicator function is largest at the tet's centroid among those allowed next to every
+//    neighbour's label. Tets are taken most-wrong first (the margin of their own value over the
+//    best allowed one, smallest first). Each relabelling removes every forbidden face of its tet
+//    and creates none, so the process ends; a tet with no allowed label is left (counted).
+// 2. Connections. A piece that is not primary but votes for an image component is joined to
+//    another piece voting for the same component when one or two tets of other labels lie between
+//    them (through faces) and its label is allowed next to all their neighbours: those tets take
+//    its label. Rounds repeat until nothing joins (at most 8). A thin layer that cleaving broke
+//    into patches (or that step 1 patched) becomes one piece again.
+// 3. Fragments. The face-connected pieces of each label vote, tet by tet, for the image component
+//    at their centroid (the certificate's rule). The piece with the most voting volume is the
+//    primary piece of its image component. A piece that is primary for no component and smaller
+//    than fragment_voxels voxel volumes is relabelled to the neighbouring label it shares the most
+//    face area with, among those allowed next to all its neighbours (kept when there is none).
+//    Rounds repeat until nothing changes (at most 8).
+// Deterministic: the same result for any thread count. Stages: "repair contacts",
+// "repair connections", "repair fragments".
+#include <cstdint>
+
+#include "Algorithms/Core/Progress.h"
+#include "Algorithms/Core/Report.h"
+#include "Algorithms/Core/TetMesh.h"
+#include "Materials.h"
+
+namespace tetflow {
+
+struct LabelRepairParams {
+  bool contacts = true;
+  bool fragments = true;
+  bool connect = true;
+  double fragment_voxels = 1.0; // pieces below this many voxel volumes of the input may go (>= 0)
+};
+
+struct LabelRepairStats {
+  int64_t forbiddenFacesBefore = 0, forbiddenFacesAfter = 0;
+  double forbiddenAreaBefore = 0.0, forbiddenAreaAfter = 0.0; // mm^2
+  int64_t contactTets = 0;        // tets relabelled for contacts
+  int64_t unresolvedTets = 0;     // tets with a forbidden face and no allowed label
+  int64_t fragments = 0;          // pieces relabelled
+  int64_t fragmentTets = 0;
+  int64_t keptSmallPieces = 0;    // non-primary pieces below the size left (no allowed label)
+  int64_t connections = 0;        // pieces joined to another piece of their image component
+  int64_t connectTets = 0;
+  double relabelledVolume = 0.0;  // mm^3, all steps together
+  int fragmentRounds = 0, connectRounds = 0;
+};
+
+// Throws InputError for a negative fragment_voxels or a mesh failing validateStructure.
+LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
+                              Progress& progress);
+
+// repair_* keys: forbidden faces and area before and after, tets and pieces relabelled, volume.
+void writeLabelRepairReport(const LabelRepairStats& s, Report& report);
+
+} // namespace tetflow
