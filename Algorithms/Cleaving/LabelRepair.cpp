@@ -138,7 +138,7 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
     throw InputError("fragment_voxels must be a number >= 0");
   mesh.validateStructure("mesh");
   LabelRepairStats st;
-  if (mesh.numTets() == 0 || (!params.contacts && !params.fragments && !params.connect)) return st;
+  if (mesh.numTets() == 0 || (!params.contacts && !params.fragments && !params.connect && !params.edges)) return st;
   const int64_t n = static_cast<int64_t>(mesh.numTets());
 
   progress.beginStage("repair contacts");
@@ -264,6 +264,127 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
       ++st.connectRounds;
     }
   }
+  if (params.edges) {
+    progress.beginStage("repair edges");
+    // Rings of tets around every edge that lies in faces of two or more labels.
+    struct EdgeTet {
+      uint64_t edge;
+      int32_t tet;
+      bool operator<(const EdgeTet& o) const { return edge != o.edge ? edge < o.edge : tet < o.tet; }
+    };
+    static constexpr int kEdgeEnds[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    std::vector<EdgeTet> ring;
+    for (int64_t t = 0; t < n; ++t) {
+      bool mixed = false;
+      for (int f = 0; f < 4 && !mixed; ++f) {
+        const int32_t o = nb[size_t(4 * t + f)];
+        mixed = o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)];
+      }
+      if (!mixed) continue;
+      const auto& q = mesh.tets[size_t(t)];
+      for (const auto& e : kEdgeEnds) {
+        const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
+        ring.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), int32_t(t)});
+      }
+    }
+    std::sort(ring.begin(), ring.end());
+    std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
+    for (int round = 0; round < 4; ++round) {
+      progress.checkCancel();
+      int64_t closed = 0;
+      std::unordered_set<uint64_t> touched;
+      for (size_t i = 0; i < ring.size();) {
+        size_t j = i;
+        while (j < ring.size() && ring[j].edge == ring[i].edge) ++j;
+        if (round > 0 && !dirty.count(ring[i].edge)) {
+          i = j;
+          continue;
+        }
+        // The ring's tets must all be listed (an interior ring has >= 3 tets, each mixed or not:
+        // unmixed tets were skipped, so take the complete ring from the neighbours instead).
+        const uint32_t ea = uint32_t(ring[i].edge >> 32), eb = uint32_t(ring[i].edge);
+        std::vector<int32_t> tets;
+        {
+          // Walk the ring through the faces that contain the edge.
+          std::vector<int32_t> stack{ring[i].tet};
+          while (!stack.empty()) {
+            const int32_t t = stack.back();
+            stack.pop_back();
+            if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
+            tets.push_back(t);
+            const auto& q = mesh.tets[size_t(t)];
+            for (int f = 0; f < 4; ++f) {
+              const int32_t omitted = q[size_t(f)];
+              if (uint32_t(omitted) == ea || uint32_t(omitted) == eb) continue; // face lacks the edge
+              const int32_t o = nb[size_t(4 * t + f)];
+              if (o >= 0) stack.push_back(o);
+            }
+          }
+        }
+        i = j;
+        std::sort(tets.begin(), tets.end());
+        auto linked = [&](int32_t x, int32_t y) {
+          for (int f = 0; f < 4; ++f)
+            if (nb[size_t(4 * x + f)] == y) return true;
+          return false;
+        };
+        // Groups (arcs) of one label, and of "not that label", around the edge.
+        auto groups = [&](auto inSet) {
+          std::vector<std::vector<int32_t>> out;
+          std::vector<char> seen(tets.size(), 0);
+          for (size_t a = 0; a < tets.size(); ++a) {
+            if (seen[a] || !inSet(tets[a])) continue;
+            std::vector<int32_t> g{tets[a]};
+            seen[a] = 1;
+            for (size_t k = 0; k < g.size(); ++k)
+              for (size_t b = 0; b < tets.size(); ++b)
+                if (!seen[b] && inSet(tets[b]) && linked(g[k], tets[b])) {
+                  seen[b] = 1;
+                  g.push_back(tets[b]);
+                }
+            out.push_back(std::move(g));
+          }
+          return out;
+        };
+        std::set<int32_t> labelsHere;
+        for (int32_t t : tets) labelsHere.insert(mesh.materials[size_t(t)]);
+        for (int32_t L : labelsHere) {
+          auto isL = [&](int32_t t) { return mesh.materials[size_t(t)] == L; };
+          if (groups(isL).size() < 2) continue;
+          // Fill the smallest gap between two arcs of L whose tets may all take L.
+          auto gaps = groups([&](int32_t t) { return !isL(t); });
+          std::sort(gaps.begin(), gaps.end(), [](const auto& x, const auto& y) { return x.size() < y.size(); });
+          for (const auto& gap : gaps) {
+            bool ok = true;
+            for (int32_t t : gap)
+              for (int f = 0; f < 4 && ok; ++f) {
+                const int32_t o = nb[size_t(4 * t + f)];
+                if (o < 0 || std::find(gap.begin(), gap.end(), o) != gap.end()) continue;
+                ok = allowed.ok(L, mesh.materials[size_t(o)]);
+              }
+            if (!ok) continue;
+            for (int32_t t : gap) {
+              st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+              mesh.materials[size_t(t)] = L;
+              ++st.edgeTets;
+              const auto& q = mesh.tets[size_t(t)];
+              for (const auto& e : kEdgeEnds) {
+                const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
+                touched.insert((uint64_t(uint32_t(a)) << 32) | uint32_t(b));
+              }
+            }
+            ++closed;
+            break;
+          }
+          break; // the ring changed: its other labels next round
+        }
+      }
+      st.closedEdges += closed;
+      if (closed == 0) break;
+      dirty.swap(touched);
+    }
+  }
+
   if (params.fragments) {
     progress.beginStage("repair fragments");
     const IndexFrame frame{labels.grid};
@@ -345,6 +466,8 @@ void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
   report.set("repair_fragments", s.fragments);
   report.set("repair_fragment_tets", s.fragmentTets);
   report.set("repair_kept_small_pieces", s.keptSmallPieces);
+  report.set("repair_closed_edges", s.closedEdges);
+  report.set("repair_edge_tets", s.edgeTets);
   report.set("repair_connections", s.connections);
   report.set("repair_connect_tets", s.connectTets);
   report.set("repair_relabelled_volume_mm3", s.relabelledVolume);

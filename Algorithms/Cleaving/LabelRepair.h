@@ -16,14 +16,19 @@
 //    them (through faces) and its label is allowed next to all their neighbours: those tets take
 //    its label. Rounds repeat until nothing joins (at most 8). A thin layer that cleaving broke
 //    into patches (or that step 1 patched) becomes one piece again.
-// 3. Fragments. The face-connected pieces of each label vote, tet by tet, for the image component
+// 3. Edges. Around an edge where the tets of one label form two or more groups (joined through
+//    the faces at the edge), the label touches itself along the edge: a non-manifold interface
+//    edge. The smallest gap of other tets between two such groups whose tets may all take the
+//    label (allowed next to all their other neighbours) takes it. Up to 4 rounds, each on the
+//    edges of the tets the last one changed.
+// 4. Fragments. The face-connected pieces of each label vote, tet by tet, for the image component
 //    at their centroid (the certificate's rule). The piece with the most voting volume is the
 //    primary piece of its image component. A piece that is primary for no component and smaller
 //    than fragment_voxels voxel volumes is relabelled to the neighbouring label it shares the most
 //    face area with, among those allowed next to all its neighbours (kept when there is none).
 //    Rounds repeat until nothing changes (at most 8).
 // Deterministic: the same result for any thread count. Stages: "repair contacts",
-// "repair connections", "repair fragments".
+// "repair connections", "repair edges", "repair fragments".
 #include <cstdint>
 
 #include "Algorithms/Core/Progress.h"
@@ -37,6 +42,7 @@ struct LabelRepairParams {
   bool contacts = true;
   bool fragments = true;
   bool connect = true;
+  bool edges = true;
   double fragment_voxels = 1.0; // pieces below this many voxel volumes of the input may go (>= 0)
 };
 
@@ -50,6 +56,8 @@ struct LabelRepairStats {
   int64_t keptSmallPieces = 0;    // non-primary pieces below the size left (no allowed label)
   int64_t connections = 0;        // pieces joined to another piece of their image component
   int64_t connectTets = 0;
+  int64_t closedEdges = 0;        // non-manifold interface edges closed
+  int64_t edgeTets = 0;
   double relabelledVolume = 0.0;  // mm^3, all steps together
   int fragmentRounds = 0, connectRounds = 0;
 };
