@@ -99,7 +99,7 @@ void registerCleaveMesh(ModuleRegistry& r) {
   m.params = {dbl("alpha_short", d.alpha_short, 0.0, 0.49, "", "violation threshold on short BCC edges, fraction of edge length (0 = no warping)"),
               dbl("alpha_long", d.alpha_long, 0.0, 0.49, "", "violation threshold on long BCC edges, fraction of edge length"),
               dbl("xi", d.xi, 1e-6, 0.5, "", "unstructured backgrounds: alpha = (1/2 - xi) x shortest altitude (seed §5.5.2)"),
-              dbl("blend_sigma", 1.0, 0.05, 10.0, "voxels", "smoothing of label volumes into indicator functions"),
+              dbl("blend_sigma", 0.5, 0.05, 10.0, "voxels", "smoothing of label volumes into indicator functions (0.5 keeps one-voxel layers; larger values smooth more and thin them)"),
               strip,
               makeParam("repair_labels", ParamType::Bool, true, "",
                         "after cleaving, relabel tets (geometry unchanged) so that labels that never touch "

@@ -121,7 +121,7 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   ParamSpec uni = makeParam("uniform_interfaces", ParamType::Bool, false, "",
                             "octree_bcc: refine until no graded (transition or bisected) tet is cut by a "
                             "material interface (seed §4.8.1); better angles after cleaving, more tets");
-  ParamSpec sigma = doubleParam("blend_sigma", 1.0, 0.05, 10.0, "voxels",
+  ParamSpec sigma = doubleParam("blend_sigma", 0.5, 0.05, 10.0, "voxels",
                                 "uniform_interfaces with a label volume: smoothing into indicator "
                                 "functions (use CleaveMesh's value)");
   m.params = {kind, cs, pad, minc, maxc, uni, sigma};
