@@ -180,22 +180,13 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
     st.unresolvedTets = static_cast<int64_t>(forbiddenTets(mesh, nb, allowed).size());
   }
 
+  const IndexFrame frame{labels.grid};
   if (params.connect) {
     progress.beginStage("repair connections");
-    const IndexFrame frame{labels.grid};
-    std::vector<int32_t> vote(mesh.numTets());
-#pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < n; ++t)
-      vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))),
-                                           mesh.materials[size_t(t)]);
+    std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
     for (int round = 0; round < 8; ++round) {
       progress.checkCancel();
-      DisjointSets sets(mesh.numTets());
-      for (int64_t t = 0; t < n; ++t)
-        for (int f = 0; f < 4; ++f) {
-          const int32_t o = nb[size_t(4 * t + f)];
-          if (o > t && mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) sets.unite(int32_t(t), o);
-        }
+      DisjointSets sets = sameLabelPieces(mesh, nb);
       // The primary piece of every image component, then the other pieces that vote for one, with
       // their tets and the components they vote for.
       const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
@@ -387,21 +378,11 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
 
   if (params.fragments) {
     progress.beginStage("repair fragments");
-    const IndexFrame frame{labels.grid};
     const double limit = params.fragment_voxels * labels.grid.voxelVolume();
-    std::vector<int32_t> vote(mesh.numTets());
-#pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < n; ++t)
-      vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))),
-                                           mesh.materials[size_t(t)]);
+    std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
     for (int round = 0; round < 8; ++round) {
       progress.checkCancel();
-      DisjointSets sets(mesh.numTets());
-      for (int64_t t = 0; t < n; ++t)
-        for (int f = 0; f < 4; ++f) {
-          const int32_t o = nb[size_t(4 * t + f)];
-          if (o > t && mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) sets.unite(int32_t(t), o);
-        }
+      DisjointSets sets = sameLabelPieces(mesh, nb);
       // Pieces (by root), their volume, and the primary piece of every image component.
       std::vector<double> volume(mesh.numTets(), 0.0);
       for (int64_t t = 0; t < n; ++t) volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));

@@ -58,13 +58,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   progress.beginStage("mesh");
   const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
-  DisjointSets meshSets(mesh.numTets());
-  for (int64_t t = 0; t < nTets; ++t)
-    for (int f = 0; f < 4; ++f) {
-      const int32_t o = nb[static_cast<size_t>(4 * t + f)];
-      if (o > t && mesh.materials[static_cast<size_t>(o)] == mesh.materials[static_cast<size_t>(t)])
-        meshSets.unite(static_cast<int32_t>(t), o);
-    }
+  DisjointSets meshSets = sameLabelPieces(mesh, nb);
   struct MeshComponent {
     int32_t label = 0;
     int64_t tets = 0;

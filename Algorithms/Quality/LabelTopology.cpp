@@ -222,4 +222,24 @@ int32_t voteImageComponent(const LabelVolume& labels, const std::vector<int32_t>
   return vote;
 }
 
+DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb) {
+  DisjointSets sets(mesh.numTets());
+  for (size_t t = 0; t < mesh.numTets(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[4 * t + size_t(f)];
+      if (o > int32_t(t) && mesh.materials[size_t(o)] == mesh.materials[t]) sets.unite(int32_t(t), o);
+    }
+  return sets;
+}
+
+std::vector<int32_t> tetVotes(const TetMesh& mesh, const LabelVolume& labels, const std::vector<int32_t>& comp) {
+  const IndexFrame frame{labels.grid};
+  std::vector<int32_t> vote(mesh.numTets());
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < static_cast<int64_t>(mesh.numTets()); ++t)
+    vote[size_t(t)] = voteImageComponent(labels, comp, frame.toIndex(tetCentroid(mesh, size_t(t))),
+                                         mesh.materials[size_t(t)]);
+  return vote;
+}
+
 } // namespace tetflow

@@ -131,4 +131,11 @@ struct IndexFrame {
 // (centre distance in mm) among its 26 neighbours, else -1.
 int32_t voteImageComponent(const LabelVolume& labels, const std::vector<int32_t>& comp, const Vec3& c, int32_t L);
 
+// Same-label pieces of a mesh: tets joined by faces (nb from tetFaceNeighbours) when their labels
+// are equal.
+DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb);
+
+// voteImageComponent for every tet (in parallel).
+std::vector<int32_t> tetVotes(const TetMesh& mesh, const LabelVolume& labels, const std::vector<int32_t>& comp);
+
 } // namespace tetflow
