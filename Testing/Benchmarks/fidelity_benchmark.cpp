@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
     for (double cell : {4.0, 3.0, 2.0}) {
       char w[128];
       std::snprintf(w, sizeof w, "regular %.0f mm, blend_sigma %.1f%s", cell, sigma,
-                    cell == 4.0 && sigma == 1.0 ? " (default)" : "");
+                    cell == 4.0 ? (sigma == 1.0 ? " (old default)" : " (default)") : "");
       const std::string r = regular(w, head, *vol, cell, true);
       out << r;
       std::cout << r << std::flush;
@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
     const OctreeBccResult o = generateOctreeBcc(head.grid(), f.field, OctreeBccParams{}, np);
     char w[128];
     std::snprintf(w, sizeof w, "octree min %.0f, blend_sigma %.1f%s", minSize, sigma,
-                  minSize == 4.0 ? " (adaptive)" : "");
+                  minSize == 4.0 ? " (old adaptive)" : "");
     const std::string lines = cleaveAndRepair(w, o.background, now() - a, head, *vol, true);
     out << lines;
     std::cout << lines << std::flush;
