@@ -6,6 +6,7 @@
 
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Cleaving/LabelRepair.h"
+#include "Algorithms/Cleaving/VolumeCalibration.h"
 #include "StandardModules.h"
 
 namespace tetflow {
@@ -42,13 +43,20 @@ public:
         throw InputError("parameter 'strip_exterior' = '" + strip + "': use 'none' or a material label value");
       p.strip_exterior = static_cast<int32_t>(v);
     }
-    CleaveResult r = cleave(bg, *mats, p, ctx.progress());
+    const bool repairOn = ctx.getBool("repair_labels");
     LabelRepairParams rp;
-    rp.contacts = rp.fragments = ctx.getBool("repair_labels");
+    rp.contacts = rp.connect = rp.edges = rp.fragments = repairOn;
     rp.fragment_voxels = ctx.getDouble("fragment_voxels");
+    VolumeCalibration calibration;
+    std::unique_ptr<OffsetMaterials> calibrated;
+    const int rounds = static_cast<int>(ctx.getInt("volume_calibration"));
+    CleaveResult r = rounds > 0 ? cleaveCalibrated(bg, *mats, p, rounds, repairOn ? &rp : nullptr, ctx.progress(),
+                                                   calibration, calibrated)
+                                : cleave(bg, *mats, p, ctx.progress());
+    const MaterialSet& used = calibrated ? static_cast<const MaterialSet&>(*calibrated) : *mats;
     LabelRepairStats repair;
-    if (rp.contacts) {
-      repair = repairLabels(r.mesh, *mats, rp, ctx.progress());
+    if (repairOn) {
+      repair = repairLabels(r.mesh, used, rp, ctx.progress());
       // The per-material figures after the repair (stripped labels have no tets left).
       std::map<int32_t, std::pair<int64_t, double>> now;
       for (size_t t = 0; t < r.mesh.numTets(); ++t) {
@@ -63,7 +71,8 @@ public:
         }
     }
     writeCleaveReport(r, ctx.report());
-    if (rp.contacts) writeLabelRepairReport(repair, ctx.report());
+    if (repairOn) writeLabelRepairReport(repair, ctx.report());
+    if (rounds > 0) writeVolumeCalibrationReport(calibration, mats->labels(), ctx.report());
     ctx.report().set("background", bg.kind.empty() ? "unstructured" : "bcc_lattice");
     for (const auto& m : r.materials)
       if (m.lost()) {
@@ -96,6 +105,12 @@ void registerCleaveMesh(ModuleRegistry& r) {
   strip.type = ParamType::String;
   strip.defaultValue = std::string("none");
   strip.description = "material label removed after meshing (e.g. 0 for the background), or none";
+  ParamSpec volumeCalibration = makeParam(
+      "volume_calibration", ParamType::Int, int64_t(0), "rounds",
+      "per-material offsets on the indicator functions so that each material's volume matches its "
+      "voxels (0 = off; each round costs one more cleave and repair)");
+  volumeCalibration.min = 0.0;
+  volumeCalibration.max = 10.0;
   m.params = {dbl("alpha_short", d.alpha_short, 0.0, 0.49, "", "violation threshold on short BCC edges, fraction of edge length (0 = no warping)"),
               dbl("alpha_long", d.alpha_long, 0.0, 0.49, "", "violation threshold on long BCC edges, fraction of edge length"),
               dbl("xi", d.xi, 1e-6, 0.5, "", "unstructured backgrounds: alpha = (1/2 - xi) x shortest altitude (seed §5.5.2)"),
@@ -106,7 +121,8 @@ void registerCleaveMesh(ModuleRegistry& r) {
                         "in the input do not share faces, and drop fragments: pieces smaller than "
                         "fragment_voxels that are not the main piece of an image component"),
               dbl("fragment_voxels", 1.0, 0.0, 1e6, "voxel volumes",
-                  "largest fragment the label repair may relabel")};
+                  "largest fragment the label repair may relabel"),
+              volumeCalibration};
   m.summaryKeys = {"tets", "materials_lost"};
   m.factory = [] { return std::make_unique<CleaveMesh>(); };
   r.add(std::move(m));
