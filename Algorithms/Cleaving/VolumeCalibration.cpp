@@ -154,10 +154,13 @@ CleaveResult cleaveCalibrated(const BackgroundMesh& background, const MaterialSe
       calibration.bestRound = r;
     }
     if (r == rounds) break;
+    // Only the materials off by at least half the worst error move: a large material a percent
+    // off, moved as well, would push into the thin layer next to it.
+    const double threshold = std::max(kCalibrationTolerance, 0.5 * worst);
     bool changed = false;
     for (size_t m = 0; m < k; ++m) {
       const double input = materials.inputVolumes()[m];
-      if (input <= 0 || std::abs(err[m]) <= kCalibrationTolerance) continue;
+      if (input <= 0 || std::abs(err[m]) <= threshold) continue;
       double next = offsets[m];
       if (r == 0) {
         if (area[m] > 0 && slope[m] > 0) next = -err[m] * input / area[m] * slope[m];

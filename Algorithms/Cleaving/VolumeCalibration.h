@@ -11,14 +11,15 @@
 //
 // How, with R rounds (R >= 1; the cost is R + 2 cleaves, each but the last followed by the label
 // repair when one is given):
-//  - trial 0: cleave with no offsets; e_L = relative volume error of material L. Materials with
-//    |e_L| <= kCalibrationTolerance are left alone. For the others a model step: the offset that
+//  - trial 0: cleave with no offsets; e_L = relative volume error of material L. Only materials
+//    with |e_L| above kCalibrationTolerance and above half the worst |e| move (a large material a
+//    percent off would otherwise push into the thin layer beside it). For them a model step: the offset that
 //    would move L's interfaces (area A_L, after the repair) by e_L V_L / A_L, using the median
 //    slope of f_L - f_M across the cleaved faces (before the repair, where they follow the
 //    functions);
 //  - trials 1..R: cleave with the current offsets; then (before trial R) a secant step per material
-//    from its last two (offset, error) pairs (left alone when within the tolerance or when the error
-//    did not change);
+//    from its last two (offset, error) pairs (by the same selection; left alone when its error did
+//    not change);
 //  - the final cleave uses the offsets of the best trial (smallest worst |e_L|; trial 0 when none
 //    is better), so calibration never makes the volumes worse; the caller repairs it, which gives
 //    exactly that trial's labels (cleaving and repair are deterministic), with strip_exterior.
