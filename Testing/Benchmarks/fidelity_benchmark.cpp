@@ -4,7 +4,8 @@
 // certificate compares with the argmax labels of the indicator functions) and random label
 // volumes. Per run: output tets, meshing and certificate seconds, worst per-label volume error,
 // components lost / lost_small / split / merged / spurious, spurious contact area, non-manifold interface
-// edges and vertices, voxel agreement; each run before and after CleaveMesh's label repair.
+// edges and vertices, voxel agreement; each run before and after CleaveMesh's label repair, and
+// the default and adaptive nets' settings also with volume_calibration 2 (with their angles).
 //
 //   fidelity_benchmark [RESULTS_FILE] [SPHERES_DIR]
 #include <omp.h>
@@ -23,9 +24,11 @@
 #include "Algorithms/BackgroundMesh/OctreeBcc.h"
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Cleaving/LabelRepair.h"
+#include "Algorithms/Cleaving/VolumeCalibration.h"
 #include "Algorithms/Core/Phantom.h"
 #include "Algorithms/IO/VolumeIO.h"
 #include "Algorithms/Quality/Certificate.h"
+#include "Algorithms/Quality/MeshQuality.h"
 #include "Algorithms/SizingField/SizingField.h"
 
 using namespace tetflow;
@@ -39,6 +42,15 @@ const char* kHeader =
     "# run                                      tets   mesh_s  cert_s  worst_vol_err      lost small split merged spur "
     "spur_contact_mm2  nm_edges nm_verts agree\n";
 
+std::string qualityLine(const TetMesh& mesh) {
+  NullProgress np;
+  const QualityResult q = evaluateQuality(mesh, QualityParams{}, np);
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "dihedral %.2f..%.2f deg, %lld tets below 10 deg", q.minDihedral, q.maxDihedral,
+                static_cast<long long>(q.tetsBelow[1]));
+  return buf;
+}
+
 std::string row(const std::string& what, const TetMesh& mesh, double meshSeconds, const LabelVolume& labels) {
   NullProgress np;
   const double a = now();
@@ -50,6 +62,22 @@ std::string row(const std::string& what, const TetMesh& mesh, double meshSeconds
                 c.lostSmall, c.split, c.merged, c.spurious, c.spuriousContactArea, static_cast<long long>(c.nonmanifoldEdges),
                 static_cast<long long>(c.nonmanifoldVertices), c.agreement);
   return buf;
+}
+
+// A third row with CleaveMesh's volume_calibration (2 rounds, label repair included).
+std::string calibrated(const BackgroundMesh& bg, double bgSeconds, const MaterialSet& mats, const LabelVolume& labels,
+                       bool stripZero) {
+  NullProgress np;
+  const double a = now();
+  CleaveParams cp;
+  if (stripZero) cp.strip_exterior = 0;
+  const LabelRepairParams rp;
+  VolumeCalibration cal;
+  std::unique_ptr<OffsetMaterials> om;
+  CleaveResult r = cleaveCalibrated(bg, mats, cp, 2, &rp, np, cal, om);
+  repairLabels(r.mesh, *om, rp, np);
+  const double seconds = bgSeconds + now() - a;
+  return row("  + volume_calibration 2", r.mesh, seconds, labels) + "    " + qualityLine(r.mesh) + "\n";
 }
 
 // Two rows: the cleaved mesh, then the same after CleaveMesh's label repair (repair_labels).
@@ -136,14 +164,19 @@ int main(int argc, char** argv) {
       char w[128];
       std::snprintf(w, sizeof w, "regular %.0f mm, blend_sigma %.1f%s", cell, sigma,
                     cell == 4.0 ? (sigma == 1.0 ? " (old default)" : " (default)") : "");
-      const std::string r = regular(w, head, *vol, cell, true);
+      std::string r = regular(w, head, *vol, cell, true);
+      if (cell == 4.0 && sigma == 0.5) {
+        const double a = now();
+        const BackgroundMesh bg = generateRegularBcc(head.grid(), BccParams{cell, 0.0}, np);
+        r += calibrated(bg, now() - a, head, *vol, true);
+      }
       out << r;
       std::cout << r << std::flush;
     }
   }
   // The adaptive net (sizing field rate 1, Lipschitz 0.5, sizes 4..32 -> octree_bcc -> cleave),
   // and the same field down to 2 mm with blend_sigma 0.5.
-  for (const auto& [minSize, sigma] : {std::pair{4.0, 1.0}, std::pair{2.0, 0.5}}) {
+  for (const auto& [minSize, sigma] : {std::pair{4.0, 1.0}, std::pair{4.0, 0.5}, std::pair{2.0, 0.5}}) {
     const LabelMaterials head(vol, sigma);
     SizingFieldParams sp;
     sp.lipschitz = 0.5;
@@ -154,8 +187,10 @@ int main(int argc, char** argv) {
     const OctreeBccResult o = generateOctreeBcc(head.grid(), f.field, OctreeBccParams{}, np);
     char w[128];
     std::snprintf(w, sizeof w, "octree min %.0f, blend_sigma %.1f%s", minSize, sigma,
-                  minSize == 4.0 ? " (old adaptive)" : "");
-    const std::string lines = cleaveAndRepair(w, o.background, now() - a, head, *vol, true);
+                  minSize == 4.0 ? (sigma == 1.0 ? " (old adaptive)" : " (adaptive)") : "");
+    const double bgSeconds = now() - a;
+    std::string lines = cleaveAndRepair(w, o.background, bgSeconds, head, *vol, true);
+    if (minSize == 4.0 && sigma == 0.5) lines += calibrated(o.background, bgSeconds, head, *vol, true);
     out << lines;
     std::cout << lines << std::flush;
   }
