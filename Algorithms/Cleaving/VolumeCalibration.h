@@ -22,7 +22,8 @@
 //    not change);
 //  - the final cleave uses the offsets of the best trial (smallest worst |e_L|; trial 0 when none
 //    is better), so calibration never makes the volumes worse; the caller repairs it, which gives
-//    exactly that trial's labels (cleaving and repair are deterministic), with strip_exterior.
+//    exactly that trial's labels when nothing is stripped (cleaving and repair are deterministic;
+//    with strip_exterior the repair no longer sees the stripped material, a small difference).
 // Offsets are clamped to [-kMaxCalibrationOffset, kMaxCalibrationOffset]. Sums run in face order,
 // so the result does not depend on the thread count. The response is smooth on graded meshes with
 // cells finer than the layer (head phantom, octree down to 4 mm: CSF -12 % -> +0.1 % in two
