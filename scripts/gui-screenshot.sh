@@ -21,3 +21,12 @@ shot "$here/Nets/default.srn" --select m3 --clip y:0.5 --screenshot "$here/docs/
 # histogram.
 shot "$here/Nets/default.srn" --select m4 --color min_dihedral --clip y:0.5 --show-report \
   --screenshot "$here/docs/tetflow-gui-quality.png"
+# The certificate on the old default settings (blend_sigma 1, no label repair): EvaluateQuality's
+# mesh coloured by certificate_flags, which marks the CSF's extra pieces and the brain-skull contact.
+sed -e 's/<var name="blend_sigma" val="{0.5}"/<var name="blend_sigma" val="{1}"/g' \
+    -e 's/<var name="repair_labels" val="{true}"/<var name="repair_labels" val="{false}"/' \
+    -e 's/<var name="require_components" val="{true}"/<var name="require_components" val="{false}"/' \
+    -e 's/<var name="forbid_spurious_contacts" val="{true}"/<var name="forbid_spurious_contacts" val="{false}"/' \
+    "$here/Nets/default.srn" > "$out/old-default.srn"
+shot "$out/old-default.srn" --select m4 --color certificate_flags --clip y:0.5 --show-report \
+  --screenshot "$here/docs/tetflow-gui-certificate.png"
