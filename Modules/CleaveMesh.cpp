@@ -47,6 +47,7 @@ public:
     LabelRepairParams rp;
     rp.contacts = rp.connect = rp.edges = rp.fragments = repairOn;
     rp.fragment_voxels = ctx.getDouble("fragment_voxels");
+    rp.points = repairOn && ctx.getBool("repair_point_contacts");
     VolumeCalibration calibration;
     std::unique_ptr<OffsetMaterials> calibrated;
     const int rounds = static_cast<int>(ctx.getInt("volume_calibration"));
@@ -122,6 +123,10 @@ void registerCleaveMesh(ModuleRegistry& r) {
                         "fragment_voxels that are not the main piece of an image component"),
               dbl("fragment_voxels", 1.0, 0.0, 1e6, "voxel volumes",
                   "largest fragment the label repair may relabel"),
+              makeParam("repair_point_contacts", ParamType::Bool, false, "",
+                        "label repair also where labels that never touch meet at a vertex or edge "
+                        "(thin layers pinched to nothing): no such contact left, but on a coarse "
+                        "lattice the layer becomes a whole tet thick there"),
               volumeCalibration};
   m.summaryKeys = {"tets", "materials_lost"};
   m.factory = [] { return std::make_unique<CleaveMesh>(); };

@@ -138,7 +138,8 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
     throw InputError("fragment_voxels must be a number >= 0");
   mesh.validateStructure("mesh");
   LabelRepairStats st;
-  if (mesh.numTets() == 0 || (!params.contacts && !params.fragments && !params.connect && !params.edges)) return st;
+  if (mesh.numTets() == 0 || (!params.contacts && !params.fragments && !params.connect && !params.edges &&
+                               !params.points)) return st;
   const int64_t n = static_cast<int64_t>(mesh.numTets());
 
   progress.beginStage("repair contacts");
@@ -178,6 +179,92 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
       }
     }
     st.unresolvedTets = static_cast<int64_t>(forbiddenTets(mesh, nb, allowed).size());
+  }
+
+  if (params.points) {
+    progress.beginStage("repair point contacts");
+    // Vertex stars (CSR).
+    const size_t nP = mesh.numPoints();
+    std::vector<int64_t> off(nP + 1, 0);
+    for (const auto& q : mesh.tets)
+      for (int a = 0; a < 4; ++a) ++off[size_t(q[size_t(a)]) + 1];
+    for (size_t p = 0; p < nP; ++p) off[p + 1] += off[p];
+    std::vector<int32_t> star(static_cast<size_t>(off[nP]));
+    {
+      std::vector<int64_t> pos(off.begin(), off.end() - 1);
+      for (int64_t t = 0; t < n; ++t)
+        for (int a = 0; a < 4; ++a) star[size_t(pos[size_t(mesh.tets[size_t(t)][size_t(a)])]++)] = int32_t(t);
+    }
+    for (int round = 0; round < 4; ++round) {
+      progress.checkCancel();
+      int64_t fixed = 0;
+      for (size_t p = 0; p < nP; ++p) {
+        const int32_t* first = star.data() + off[p];
+        const int64_t k = off[p + 1] - off[p];
+        // Labels in the star, and a forbidden pair among them.
+        std::array<int32_t, 64> seen{};
+        int ns = 0;
+        for (int64_t a = 0; a < k && ns < 64; ++a) {
+          const int32_t L = mesh.materials[size_t(first[a])];
+          if (std::find(seen.begin(), seen.begin() + ns, L) == seen.begin() + ns) seen[size_t(ns++)] = L;
+        }
+        int32_t la = 0, lb = 0;
+        bool forbidden = false;
+        for (int x = 0; x < ns && !forbidden; ++x)
+          for (int y = x + 1; y < ns && !forbidden; ++y)
+            if (!allowed.ok(seen[size_t(x)], seen[size_t(y)])) {
+              forbidden = true;
+              la = seen[size_t(x)];
+              lb = seen[size_t(y)];
+            }
+        if (!forbidden) continue;
+        // Relabel the smaller side's tets in the star (the other side if that fails), each to the
+        // label with the largest indicator at its centroid that may touch every label left in the
+        // star and every face neighbour.
+        int64_t na = 0, nb2 = 0;
+        for (int64_t a = 0; a < k; ++a) {
+          na += mesh.materials[size_t(first[a])] == la ? 1 : 0;
+          nb2 += mesh.materials[size_t(first[a])] == lb ? 1 : 0;
+        }
+        for (int32_t side : na <= nb2 ? std::array<int32_t, 2>{la, lb} : std::array<int32_t, 2>{lb, la}) {
+          std::vector<std::pair<int32_t, int32_t>> plan; // (tet, new label)
+          bool ok = true;
+          for (int64_t a = 0; a < k && ok; ++a) {
+            const int32_t t = first[a];
+            if (mesh.materials[size_t(t)] != side) continue;
+            const auto values = valuesAt(materials, tetCentroid(mesh, size_t(t)));
+            double best = -std::numeric_limits<double>::infinity();
+            int32_t pick = side;
+            for (const auto& [L, v] : values) {
+              if (L == side) continue;
+              bool fits = true;
+              for (int x = 0; x < ns && fits; ++x)
+                if (seen[size_t(x)] != side) fits = allowed.ok(L, seen[size_t(x)]);
+              for (int f = 0; f < 4 && fits; ++f) {
+                const int32_t o = nb[size_t(4 * t + f)];
+                if (o >= 0) fits = allowed.ok(L, mesh.materials[size_t(o)]);
+              }
+              if (fits && double(v) > best) {
+                best = double(v);
+                pick = L;
+              }
+            }
+            if (pick == side) ok = false;
+            else plan.push_back({t, pick});
+          }
+          if (!ok || plan.empty()) continue;
+          for (const auto& [t, L] : plan) {
+            st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+            mesh.materials[size_t(t)] = L;
+            ++st.pointTets;
+          }
+          ++fixed;
+          break;
+        }
+      }
+      st.pointContacts += fixed;
+      if (fixed == 0) break;
+    }
   }
 
   const IndexFrame frame{labels.grid};
@@ -447,6 +534,8 @@ void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
   report.set("repair_fragments", s.fragments);
   report.set("repair_fragment_tets", s.fragmentTets);
   report.set("repair_kept_small_pieces", s.keptSmallPieces);
+  report.set("repair_point_contacts", s.pointContacts);
+  report.set("repair_point_tets", s.pointTets);
   report.set("repair_closed_edges", s.closedEdges);
   report.set("repair_edge_tets", s.edgeTets);
   report.set("repair_connections", s.connections);

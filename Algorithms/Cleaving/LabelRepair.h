@@ -11,6 +11,14 @@
 //    neighbour's label. Tets are taken most-wrong first (the margin of their own value over the
 //    best allowed one, smallest first). Each relabelling removes every forbidden face of its tet
 //    and creates none, so the process ends; a tet with no allowed label is left (counted).
+// 1b. Point contacts (`points`, off by default). Where two labels that never touch meet at a
+//    vertex or an edge (their tets share it but no face), the thin layer between them is pinched
+//    to nothing there: a non-manifold vertex of that layer, and a node that couples the two
+//    materials directly in a P1 FEM. The smaller side's tets around the vertex take the label
+//    (largest indicator at their centroid) that may touch every other label around the vertex and
+//    every face neighbour. Up to 4 passes. On a lattice coarser than the layer this makes the
+//    layer a whole tet thick wherever it was pinched: the head's CSF on the 4 mm default goes from
+//    -11 % to +33 % in volume, non-manifold vertices from 8 155 to 48.
 // 2. Connections. A piece that is not primary but votes for an image component is joined to
 //    another piece voting for the same component when one or two tets of other labels lie between
 //    them (through faces) and its label is allowed next to all their neighbours: those tets take
@@ -41,6 +49,7 @@ namespace tetflow {
 struct LabelRepairParams {
   bool contacts = true;
   bool fragments = true;
+  bool points = false; // off by default: on coarse lattices it thickens thin layers (see below)
   bool connect = true;
   bool edges = true;
   double fragment_voxels = 1.0; // pieces below this many voxel volumes of the input may go (>= 0)
@@ -54,6 +63,8 @@ struct LabelRepairStats {
   int64_t fragments = 0;          // pieces relabelled
   int64_t fragmentTets = 0;
   int64_t keptSmallPieces = 0;    // non-primary pieces below the size left (no allowed label)
+  int64_t pointContacts = 0;      // vertices where forbidden labels met, resolved
+  int64_t pointTets = 0;
   int64_t connections = 0;        // pieces joined to another piece of their image component
   int64_t connectTets = 0;
   int64_t closedEdges = 0;        // non-manifold interface edges closed

@@ -225,3 +225,48 @@ TEST(LabelRepair, TheHeadPhantomsBrokenCsfIsJoinedAndSealed) {
 }
 } // namespace
 } // namespace tetflow
+
+namespace tetflow {
+namespace {
+// Point contacts: brain and skull tets that share only a vertex or an edge through a pinched CSF.
+TEST(LabelRepair, PointContactsAreSealedWhenAsked) {
+  PhantomParams pp;
+  pp.voxel_size = 4.0;
+  pp.radius = 92;
+  pp.skull_radius = 84;
+  pp.csf_radius = 76;
+  pp.brain_radius = 72;
+  const auto vol = std::make_shared<const LabelVolume>(makePhantom(pp).volume);
+  const LabelMaterials mats(vol, 0.5);
+  NullProgress np;
+  const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{8.0, 0.0}, np);
+  CleaveParams cp;
+  cp.strip_exterior = 0;
+  const CleaveResult r = cleave(bg, mats, cp, np);
+  // Vertices whose tets carry brain (4) and skull (2), which never touch in the image.
+  const auto pinched = [](const TetMesh& m) {
+    std::vector<uint8_t> brain(m.numPoints(), 0), skull(m.numPoints(), 0);
+    for (size_t t = 0; t < m.numTets(); ++t)
+      for (int32_t v : m.tets[t]) {
+        if (m.materials[t] == 4) brain[size_t(v)] = 1;
+        if (m.materials[t] == 2) skull[size_t(v)] = 1;
+      }
+    int64_t n = 0;
+    for (size_t v = 0; v < m.numPoints(); ++v) n += brain[v] && skull[v] ? 1 : 0;
+    return n;
+  };
+  TetMesh plain = r.mesh, sealed = r.mesh;
+  repairLabels(plain, mats, LabelRepairParams{}, np);
+  LabelRepairParams withPoints;
+  withPoints.points = true;
+  const LabelRepairStats st = repairLabels(sealed, mats, withPoints, np);
+  EXPECT_GT(pinched(plain), 0);
+  EXPECT_GT(st.pointContacts, 0);
+  EXPECT_LE(pinched(sealed) * 20, pinched(plain));
+  const CertificateResult a = certifyMesh(plain, *vol, np), b = certifyMesh(sealed, *vol, np);
+  EXPECT_LT(b.nonmanifoldVertices, a.nonmanifoldVertices);
+  EXPECT_TRUE(b.spuriousContacts.empty());
+  EXPECT_EQ(b.split + b.lost + b.merged + b.spurious, 0);
+}
+} // namespace
+} // namespace tetflow
