@@ -5,7 +5,7 @@
 // volumes. Per run: output tets, meshing and certificate seconds, worst per-label volume error,
 // components lost / lost_small / split / merged / spurious, spurious contact area, non-manifold interface
 // edges and vertices, voxel agreement; each run before and after CleaveMesh's label repair, and
-// the default and adaptive nets' settings also with volume_calibration 2 (with their angles).
+// the default and adaptive settings also with point contacts and volume_calibration 4 (with angles).
 //
 //   fidelity_benchmark [RESULTS_FILE] [SPHERES_DIR]
 #include <omp.h>
@@ -64,20 +64,22 @@ std::string row(const std::string& what, const TetMesh& mesh, double meshSeconds
   return buf;
 }
 
-// A third row with CleaveMesh's volume_calibration (2 rounds, label repair included).
+// A third row as Nets/adaptive_head.srn cleaves: volume_calibration 4 with the label repair,
+// point contacts included.
 std::string calibrated(const BackgroundMesh& bg, double bgSeconds, const MaterialSet& mats, const LabelVolume& labels,
                        bool stripZero) {
   NullProgress np;
   const double a = now();
   CleaveParams cp;
   if (stripZero) cp.strip_exterior = 0;
-  const LabelRepairParams rp;
+  LabelRepairParams rp;
+  rp.points = true;
   VolumeCalibration cal;
   std::unique_ptr<OffsetMaterials> om;
-  CleaveResult r = cleaveCalibrated(bg, mats, cp, 2, &rp, np, cal, om);
+  CleaveResult r = cleaveCalibrated(bg, mats, cp, 4, &rp, np, cal, om);
   repairLabels(r.mesh, *om, rp, np);
   const double seconds = bgSeconds + now() - a;
-  return row("  + volume_calibration 2", r.mesh, seconds, labels) + "    " + qualityLine(r.mesh) + "\n";
+  return row("  + point contacts, calibration 4", r.mesh, seconds, labels) + "    " + qualityLine(r.mesh) + "\n";
 }
 
 // Two rows: the cleaved mesh, then the same after CleaveMesh's label repair (repair_labels).
