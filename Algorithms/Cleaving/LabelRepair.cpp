@@ -130,6 +130,396 @@ std::vector<int64_t> forbiddenTets(const TetMesh& mesh, const std::vector<int32_
   return out;
 }
 
+// What every step works on.
+struct Steps {
+  TetMesh& mesh;
+  const MaterialSet& materials;
+  const LabelRepairParams& params;
+  Progress& progress;
+  LabelRepairStats& st;
+  const LabelVolume& labels;
+  const LabelImageTopology& img;
+  const Allowed& allowed;
+  const std::vector<int32_t>& nb;
+  int64_t n;
+  IndexFrame frame;
+};
+
+void repairContacts(Steps& s) {
+  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  using Item = std::pair<double, int64_t>; // (margin, tet): smallest margin first, then index
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  for (int64_t t : forbiddenTets(mesh, nb, allowed)) {
+    const Choice c = choose(mesh, nb, allowed, materials, t);
+    if (c.has) queue.push({c.margin, t});
+  }
+  int64_t steps = 0;
+  while (!queue.empty()) {
+    const auto [margin, t] = queue.top();
+    queue.pop();
+    if ((++steps & 1023) == 0) progress.checkCancel();
+    const Choice c = choose(mesh, nb, allowed, materials, t);
+    if (!c.forbidden || !c.has) continue;
+    if (c.margin > margin + 1e-12) { // its neighbourhood changed: wait for its turn
+      queue.push({c.margin, t});
+      continue;
+    }
+    st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+    mesh.materials[size_t(t)] = c.label;
+    ++st.contactTets;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[size_t(4 * t + f)];
+      if (o < 0) continue;
+      const Choice d = choose(mesh, nb, allowed, materials, o);
+      if (d.forbidden && d.has) queue.push({d.margin, o});
+    }
+  }
+  st.unresolvedTets = static_cast<int64_t>(forbiddenTets(mesh, nb, allowed).size());
+}
+
+void repairPointContacts(Steps& s) {
+  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  progress.beginStage("repair point contacts");
+  // Vertex stars (CSR).
+  const size_t nP = mesh.numPoints();
+  std::vector<int64_t> off(nP + 1, 0);
+  for (const auto& q : mesh.tets)
+    for (int a = 0; a < 4; ++a) ++off[size_t(q[size_t(a)]) + 1];
+  for (size_t p = 0; p < nP; ++p) off[p + 1] += off[p];
+  std::vector<int32_t> star(static_cast<size_t>(off[nP]));
+  {
+    std::vector<int64_t> pos(off.begin(), off.end() - 1);
+    for (int64_t t = 0; t < n; ++t)
+      for (int a = 0; a < 4; ++a) star[size_t(pos[size_t(mesh.tets[size_t(t)][size_t(a)])]++)] = int32_t(t);
+  }
+  for (int round = 0; round < 4; ++round) {
+    progress.checkCancel();
+    int64_t fixed = 0;
+    for (size_t p = 0; p < nP; ++p) {
+      const int32_t* first = star.data() + off[p];
+      const int64_t k = off[p + 1] - off[p];
+      // Labels in the star, and a forbidden pair among them.
+      std::array<int32_t, 64> seen{};
+      int ns = 0;
+      for (int64_t a = 0; a < k && ns < 64; ++a) {
+        const int32_t L = mesh.materials[size_t(first[a])];
+        if (std::find(seen.begin(), seen.begin() + ns, L) == seen.begin() + ns) seen[size_t(ns++)] = L;
+      }
+      int32_t la = 0, lb = 0;
+      bool forbidden = false;
+      for (int x = 0; x < ns && !forbidden; ++x)
+        for (int y = x + 1; y < ns && !forbidden; ++y)
+          if (!allowed.ok(seen[size_t(x)], seen[size_t(y)])) {
+            forbidden = true;
+            la = seen[size_t(x)];
+            lb = seen[size_t(y)];
+          }
+      if (!forbidden) continue;
+      // Relabel the smaller side's tets in the star (the other side if that fails), each to the
+      // label with the largest indicator at its centroid that may touch every label left in the
+      // star and every face neighbour.
+      int64_t na = 0, nb2 = 0;
+      for (int64_t a = 0; a < k; ++a) {
+        na += mesh.materials[size_t(first[a])] == la ? 1 : 0;
+        nb2 += mesh.materials[size_t(first[a])] == lb ? 1 : 0;
+      }
+      for (int32_t side : na <= nb2 ? std::array<int32_t, 2>{la, lb} : std::array<int32_t, 2>{lb, la}) {
+        std::vector<std::pair<int32_t, int32_t>> plan; // (tet, new label)
+        bool ok = true;
+        for (int64_t a = 0; a < k && ok; ++a) {
+          const int32_t t = first[a];
+          if (mesh.materials[size_t(t)] != side) continue;
+          const auto values = valuesAt(materials, tetCentroid(mesh, size_t(t)));
+          double best = -std::numeric_limits<double>::infinity();
+          int32_t pick = side;
+          for (const auto& [L, v] : values) {
+            if (L == side) continue;
+            bool fits = true;
+            for (int x = 0; x < ns && fits; ++x)
+              if (seen[size_t(x)] != side) fits = allowed.ok(L, seen[size_t(x)]);
+            for (int f = 0; f < 4 && fits; ++f) {
+              const int32_t o = nb[size_t(4 * t + f)];
+              if (o >= 0) fits = allowed.ok(L, mesh.materials[size_t(o)]);
+            }
+            if (fits && double(v) > best) {
+              best = double(v);
+              pick = L;
+            }
+          }
+          if (pick == side) ok = false;
+          else plan.push_back({t, pick});
+        }
+        if (!ok || plan.empty()) continue;
+        for (const auto& [t, L] : plan) {
+          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+          mesh.materials[size_t(t)] = L;
+          ++st.pointTets;
+        }
+        ++fixed;
+        break;
+      }
+    }
+    st.pointContacts += fixed;
+    if (fixed == 0) break;
+  }
+}
+
+void repairConnections(Steps& s) {
+  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  progress.beginStage("repair connections");
+  std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
+  for (int round = 0; round < 8; ++round) {
+    progress.checkCancel();
+    DisjointSets sets = sameLabelPieces(mesh, nb);
+    // The primary piece of every image component, then the other pieces that vote for one, with
+    // their tets and the components they vote for.
+    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+    std::map<int32_t, std::vector<int64_t>> tetsOf;
+    std::map<int32_t, std::set<int32_t>> compsOf;
+    for (int64_t t = 0; t < n; ++t) {
+      const int32_t r = sets.find(int32_t(t));
+      if (primary[size_t(r)] || vote[size_t(t)] < 0) continue;
+      compsOf[r].insert(vote[size_t(t)]);
+      tetsOf[r].push_back(t);
+    }
+    int64_t joined = 0;
+    for (const auto& [root, tets] : tetsOf) {
+      const int32_t L = mesh.materials[size_t(tets.front())];
+      const int32_t me = sets.find(root);
+      const std::set<int32_t>& comps = compsOf[root];
+      // Does tet q (label L) belong to another piece of one of our image components?
+      auto target = [&](int32_t q) {
+        return mesh.materials[size_t(q)] == L && sets.find(q) != me && vote[size_t(q)] >= 0 &&
+               comps.count(vote[size_t(q)]) > 0;
+      };
+      auto allowedAs = [&](int32_t t, int32_t skip) {
+        for (int f = 0; f < 4; ++f) {
+          const int32_t o = nb[size_t(4 * t + f)];
+          if (o >= 0 && o != skip && !allowed.ok(L, mesh.materials[size_t(o)])) return false;
+        }
+        return true;
+      };
+      // Paths of one or two tets of other labels from this piece to another one, tet by tet of
+      // the piece (ascending), one-tet paths first.
+      std::vector<int32_t> path;
+      for (int64_t t : tets) {
+        for (int f = 0; f < 4 && path.empty(); ++f) {
+          const int32_t a = nb[size_t(4 * t + f)];
+          if (a < 0 || mesh.materials[size_t(a)] == L) continue;
+          for (int g2 = 0; g2 < 4 && path.empty(); ++g2) {
+            const int32_t b = nb[size_t(4 * a + g2)];
+            if (b >= 0 && target(b) && allowedAs(a, -1)) path = {a};
+          }
+          for (int g2 = 0; g2 < 4 && path.empty(); ++g2) {
+            const int32_t b = nb[size_t(4 * a + g2)];
+            if (b < 0 || mesh.materials[size_t(b)] == L) continue;
+            for (int h = 0; h < 4 && path.empty(); ++h) {
+              const int32_t c = nb[size_t(4 * b + h)];
+              if (c >= 0 && target(c) && allowedAs(a, b) && allowedAs(b, a)) path = {a, b};
+            }
+          }
+        }
+        if (!path.empty()) break;
+      }
+      if (path.empty()) continue;
+      for (int32_t q : path) {
+        st.relabelledVolume += std::abs(mesh.tetVolume(size_t(q)));
+        mesh.materials[size_t(q)] = L;
+        vote[size_t(q)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(q))), L);
+        ++st.connectTets;
+        for (int f = 0; f < 4; ++f) {
+          const int32_t o = nb[size_t(4 * q + f)];
+          if (o >= 0 && mesh.materials[size_t(o)] == L) sets.unite(q, o);
+        }
+      }
+      ++joined;
+    }
+    st.connections += joined;
+    if (joined == 0) break;
+    ++st.connectRounds;
+  }
+}
+
+void repairEdges(Steps& s) {
+  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  progress.beginStage("repair edges");
+  // Rings of tets around every edge that lies in faces of two or more labels.
+  struct EdgeTet {
+    uint64_t edge;
+    int32_t tet;
+    bool operator<(const EdgeTet& o) const { return edge != o.edge ? edge < o.edge : tet < o.tet; }
+  };
+  static constexpr int kEdgeEnds[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  std::vector<EdgeTet> ring;
+  for (int64_t t = 0; t < n; ++t) {
+    bool mixed = false;
+    for (int f = 0; f < 4 && !mixed; ++f) {
+      const int32_t o = nb[size_t(4 * t + f)];
+      mixed = o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)];
+    }
+    if (!mixed) continue;
+    const auto& q = mesh.tets[size_t(t)];
+    for (const auto& e : kEdgeEnds) {
+      const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
+      ring.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), int32_t(t)});
+    }
+  }
+  std::sort(ring.begin(), ring.end());
+  std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
+  for (int round = 0; round < 4; ++round) {
+    progress.checkCancel();
+    int64_t closed = 0;
+    std::unordered_set<uint64_t> touched;
+    for (size_t i = 0; i < ring.size();) {
+      size_t j = i;
+      while (j < ring.size() && ring[j].edge == ring[i].edge) ++j;
+      if (round > 0 && !dirty.count(ring[i].edge)) {
+        i = j;
+        continue;
+      }
+      // The ring's tets must all be listed (an interior ring has >= 3 tets, each mixed or not:
+      // unmixed tets were skipped, so take the complete ring from the neighbours instead).
+      const uint32_t ea = uint32_t(ring[i].edge >> 32), eb = uint32_t(ring[i].edge);
+      std::vector<int32_t> tets;
+      {
+        // Walk the ring through the faces that contain the edge.
+        std::vector<int32_t> stack{ring[i].tet};
+        while (!stack.empty()) {
+          const int32_t t = stack.back();
+          stack.pop_back();
+          if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
+          tets.push_back(t);
+          const auto& q = mesh.tets[size_t(t)];
+          for (int f = 0; f < 4; ++f) {
+            const int32_t omitted = q[size_t(f)];
+            if (uint32_t(omitted) == ea || uint32_t(omitted) == eb) continue; // face lacks the edge
+            const int32_t o = nb[size_t(4 * t + f)];
+            if (o >= 0) stack.push_back(o);
+          }
+        }
+      }
+      i = j;
+      std::sort(tets.begin(), tets.end());
+      auto linked = [&](int32_t x, int32_t y) {
+        for (int f = 0; f < 4; ++f)
+          if (nb[size_t(4 * x + f)] == y) return true;
+        return false;
+      };
+      // Groups (arcs) of one label, and of "not that label", around the edge.
+      auto groups = [&](auto inSet) {
+        std::vector<std::vector<int32_t>> out;
+        std::vector<char> seen(tets.size(), 0);
+        for (size_t a = 0; a < tets.size(); ++a) {
+          if (seen[a] || !inSet(tets[a])) continue;
+          std::vector<int32_t> g{tets[a]};
+          seen[a] = 1;
+          for (size_t k = 0; k < g.size(); ++k)
+            for (size_t b = 0; b < tets.size(); ++b)
+              if (!seen[b] && inSet(tets[b]) && linked(g[k], tets[b])) {
+                seen[b] = 1;
+                g.push_back(tets[b]);
+              }
+          out.push_back(std::move(g));
+        }
+        return out;
+      };
+      std::set<int32_t> labelsHere;
+      for (int32_t t : tets) labelsHere.insert(mesh.materials[size_t(t)]);
+      for (int32_t L : labelsHere) {
+        auto isL = [&](int32_t t) { return mesh.materials[size_t(t)] == L; };
+        if (groups(isL).size() < 2) continue;
+        // Fill the smallest gap between two arcs of L whose tets may all take L.
+        auto gaps = groups([&](int32_t t) { return !isL(t); });
+        std::sort(gaps.begin(), gaps.end(), [](const auto& x, const auto& y) { return x.size() < y.size(); });
+        for (const auto& gap : gaps) {
+          bool ok = true;
+          for (int32_t t : gap)
+            for (int f = 0; f < 4 && ok; ++f) {
+              const int32_t o = nb[size_t(4 * t + f)];
+              if (o < 0 || std::find(gap.begin(), gap.end(), o) != gap.end()) continue;
+              ok = allowed.ok(L, mesh.materials[size_t(o)]);
+            }
+          if (!ok) continue;
+          for (int32_t t : gap) {
+            st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+            mesh.materials[size_t(t)] = L;
+            ++st.edgeTets;
+            const auto& q = mesh.tets[size_t(t)];
+            for (const auto& e : kEdgeEnds) {
+              const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
+              touched.insert((uint64_t(uint32_t(a)) << 32) | uint32_t(b));
+            }
+          }
+          ++closed;
+          break;
+        }
+        break; // the ring changed: its other labels next round
+      }
+    }
+    st.closedEdges += closed;
+    if (closed == 0) break;
+    dirty.swap(touched);
+  }
+}
+
+void repairFragments(Steps& s) {
+  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  progress.beginStage("repair fragments");
+  const double limit = params.fragment_voxels * labels.grid.voxelVolume();
+  std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
+  for (int round = 0; round < 8; ++round) {
+    progress.checkCancel();
+    DisjointSets sets = sameLabelPieces(mesh, nb);
+    // Pieces (by root), their volume, and the primary piece of every image component.
+    std::vector<double> volume(mesh.numTets(), 0.0);
+    for (int64_t t = 0; t < n; ++t) volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
+    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+    // Candidates: small, not primary. Their outer faces by neighbour label.
+    std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
+    std::vector<int64_t> candidateTets;
+    for (int64_t t = 0; t < n; ++t) {
+      const int32_t r = sets.find(int32_t(t));
+      if (primary[size_t(r)] || volume[size_t(r)] >= limit) continue;
+      candidateTets.push_back(t);
+      auto& b = border[r];
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[size_t(4 * t + f)];
+        if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
+        Vec3 c;
+        b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f, &c);
+      }
+    }
+    std::map<int32_t, int32_t> target; // root -> new label
+    int64_t kept = 0;
+    for (const auto& [r, b] : border) {
+      int32_t best = 0;
+      double bestArea = -1.0;
+      for (const auto& [L, area] : b) {
+        bool ok = true;
+        for (const auto& [M, unused] : b) ok = ok && allowed.ok(L, M);
+        if (ok && area > bestArea) {
+          bestArea = area;
+          best = L;
+        }
+      }
+      if (bestArea > 0.0) target[r] = best;
+      else ++kept;
+    }
+    st.keptSmallPieces = kept;
+    if (target.empty()) break;
+    ++st.fragmentRounds;
+    st.fragments += static_cast<int64_t>(target.size());
+    for (int64_t t : candidateTets) {
+      auto it = target.find(sets.find(int32_t(t)));
+      if (it == target.end()) continue;
+      mesh.materials[size_t(t)] = it->second;
+      st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+      ++st.fragmentTets;
+      vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
+    }
+  }
+}
+
 } // namespace
 
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
@@ -150,375 +540,13 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
 
-  if (params.contacts && st.forbiddenFacesBefore > 0) {
-    using Item = std::pair<double, int64_t>; // (margin, tet): smallest margin first, then index
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-    for (int64_t t : forbiddenTets(mesh, nb, allowed)) {
-      const Choice c = choose(mesh, nb, allowed, materials, t);
-      if (c.has) queue.push({c.margin, t});
-    }
-    int64_t steps = 0;
-    while (!queue.empty()) {
-      const auto [margin, t] = queue.top();
-      queue.pop();
-      if ((++steps & 1023) == 0) progress.checkCancel();
-      const Choice c = choose(mesh, nb, allowed, materials, t);
-      if (!c.forbidden || !c.has) continue;
-      if (c.margin > margin + 1e-12) { // its neighbourhood changed: wait for its turn
-        queue.push({c.margin, t});
-        continue;
-      }
-      st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-      mesh.materials[size_t(t)] = c.label;
-      ++st.contactTets;
-      for (int f = 0; f < 4; ++f) {
-        const int32_t o = nb[size_t(4 * t + f)];
-        if (o < 0) continue;
-        const Choice d = choose(mesh, nb, allowed, materials, o);
-        if (d.forbidden && d.has) queue.push({d.margin, o});
-      }
-    }
-    st.unresolvedTets = static_cast<int64_t>(forbiddenTets(mesh, nb, allowed).size());
-  }
+  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}};
+  if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
+  if (params.points) repairPointContacts(s);
+  if (params.connect) repairConnections(s);
+  if (params.edges) repairEdges(s);
+  if (params.fragments) repairFragments(s);
 
-  if (params.points) {
-    progress.beginStage("repair point contacts");
-    // Vertex stars (CSR).
-    const size_t nP = mesh.numPoints();
-    std::vector<int64_t> off(nP + 1, 0);
-    for (const auto& q : mesh.tets)
-      for (int a = 0; a < 4; ++a) ++off[size_t(q[size_t(a)]) + 1];
-    for (size_t p = 0; p < nP; ++p) off[p + 1] += off[p];
-    std::vector<int32_t> star(static_cast<size_t>(off[nP]));
-    {
-      std::vector<int64_t> pos(off.begin(), off.end() - 1);
-      for (int64_t t = 0; t < n; ++t)
-        for (int a = 0; a < 4; ++a) star[size_t(pos[size_t(mesh.tets[size_t(t)][size_t(a)])]++)] = int32_t(t);
-    }
-    for (int round = 0; round < 4; ++round) {
-      progress.checkCancel();
-      int64_t fixed = 0;
-      for (size_t p = 0; p < nP; ++p) {
-        const int32_t* first = star.data() + off[p];
-        const int64_t k = off[p + 1] - off[p];
-        // Labels in the star, and a forbidden pair among them.
-        std::array<int32_t, 64> seen{};
-        int ns = 0;
-        for (int64_t a = 0; a < k && ns < 64; ++a) {
-          const int32_t L = mesh.materials[size_t(first[a])];
-          if (std::find(seen.begin(), seen.begin() + ns, L) == seen.begin() + ns) seen[size_t(ns++)] = L;
-        }
-        int32_t la = 0, lb = 0;
-        bool forbidden = false;
-        for (int x = 0; x < ns && !forbidden; ++x)
-          for (int y = x + 1; y < ns && !forbidden; ++y)
-            if (!allowed.ok(seen[size_t(x)], seen[size_t(y)])) {
-              forbidden = true;
-              la = seen[size_t(x)];
-              lb = seen[size_t(y)];
-            }
-        if (!forbidden) continue;
-        // Relabel the smaller side's tets in the star (the other side if that fails), each to the
-        // label with the largest indicator at its centroid that may touch every label left in the
-        // star and every face neighbour.
-        int64_t na = 0, nb2 = 0;
-        for (int64_t a = 0; a < k; ++a) {
-          na += mesh.materials[size_t(first[a])] == la ? 1 : 0;
-          nb2 += mesh.materials[size_t(first[a])] == lb ? 1 : 0;
-        }
-        for (int32_t side : na <= nb2 ? std::array<int32_t, 2>{la, lb} : std::array<int32_t, 2>{lb, la}) {
-          std::vector<std::pair<int32_t, int32_t>> plan; // (tet, new label)
-          bool ok = true;
-          for (int64_t a = 0; a < k && ok; ++a) {
-            const int32_t t = first[a];
-            if (mesh.materials[size_t(t)] != side) continue;
-            const auto values = valuesAt(materials, tetCentroid(mesh, size_t(t)));
-            double best = -std::numeric_limits<double>::infinity();
-            int32_t pick = side;
-            for (const auto& [L, v] : values) {
-              if (L == side) continue;
-              bool fits = true;
-              for (int x = 0; x < ns && fits; ++x)
-                if (seen[size_t(x)] != side) fits = allowed.ok(L, seen[size_t(x)]);
-              for (int f = 0; f < 4 && fits; ++f) {
-                const int32_t o = nb[size_t(4 * t + f)];
-                if (o >= 0) fits = allowed.ok(L, mesh.materials[size_t(o)]);
-              }
-              if (fits && double(v) > best) {
-                best = double(v);
-                pick = L;
-              }
-            }
-            if (pick == side) ok = false;
-            else plan.push_back({t, pick});
-          }
-          if (!ok || plan.empty()) continue;
-          for (const auto& [t, L] : plan) {
-            st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-            mesh.materials[size_t(t)] = L;
-            ++st.pointTets;
-          }
-          ++fixed;
-          break;
-        }
-      }
-      st.pointContacts += fixed;
-      if (fixed == 0) break;
-    }
-  }
-
-  const IndexFrame frame{labels.grid};
-  if (params.connect) {
-    progress.beginStage("repair connections");
-    std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
-    for (int round = 0; round < 8; ++round) {
-      progress.checkCancel();
-      DisjointSets sets = sameLabelPieces(mesh, nb);
-      // The primary piece of every image component, then the other pieces that vote for one, with
-      // their tets and the components they vote for.
-      const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
-      std::map<int32_t, std::vector<int64_t>> tetsOf;
-      std::map<int32_t, std::set<int32_t>> compsOf;
-      for (int64_t t = 0; t < n; ++t) {
-        const int32_t r = sets.find(int32_t(t));
-        if (primary[size_t(r)] || vote[size_t(t)] < 0) continue;
-        compsOf[r].insert(vote[size_t(t)]);
-        tetsOf[r].push_back(t);
-      }
-      int64_t joined = 0;
-      for (const auto& [root, tets] : tetsOf) {
-        const int32_t L = mesh.materials[size_t(tets.front())];
-        const int32_t me = sets.find(root);
-        const std::set<int32_t>& comps = compsOf[root];
-        // Does tet q (label L) belong to another piece of one of our image components?
-        auto target = [&](int32_t q) {
-          return mesh.materials[size_t(q)] == L && sets.find(q) != me && vote[size_t(q)] >= 0 &&
-                 comps.count(vote[size_t(q)]) > 0;
-        };
-        auto allowedAs = [&](int32_t t, int32_t skip) {
-          for (int f = 0; f < 4; ++f) {
-            const int32_t o = nb[size_t(4 * t + f)];
-            if (o >= 0 && o != skip && !allowed.ok(L, mesh.materials[size_t(o)])) return false;
-          }
-          return true;
-        };
-        // Paths of one or two tets of other labels from this piece to another one, tet by tet of
-        // the piece (ascending), one-tet paths first.
-        std::vector<int32_t> path;
-        for (int64_t t : tets) {
-          for (int f = 0; f < 4 && path.empty(); ++f) {
-            const int32_t a = nb[size_t(4 * t + f)];
-            if (a < 0 || mesh.materials[size_t(a)] == L) continue;
-            for (int g2 = 0; g2 < 4 && path.empty(); ++g2) {
-              const int32_t b = nb[size_t(4 * a + g2)];
-              if (b >= 0 && target(b) && allowedAs(a, -1)) path = {a};
-            }
-            for (int g2 = 0; g2 < 4 && path.empty(); ++g2) {
-              const int32_t b = nb[size_t(4 * a + g2)];
-              if (b < 0 || mesh.materials[size_t(b)] == L) continue;
-              for (int h = 0; h < 4 && path.empty(); ++h) {
-                const int32_t c = nb[size_t(4 * b + h)];
-                if (c >= 0 && target(c) && allowedAs(a, b) && allowedAs(b, a)) path = {a, b};
-              }
-            }
-          }
-          if (!path.empty()) break;
-        }
-        if (path.empty()) continue;
-        for (int32_t q : path) {
-          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(q)));
-          mesh.materials[size_t(q)] = L;
-          vote[size_t(q)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(q))), L);
-          ++st.connectTets;
-          for (int f = 0; f < 4; ++f) {
-            const int32_t o = nb[size_t(4 * q + f)];
-            if (o >= 0 && mesh.materials[size_t(o)] == L) sets.unite(q, o);
-          }
-        }
-        ++joined;
-      }
-      st.connections += joined;
-      if (joined == 0) break;
-      ++st.connectRounds;
-    }
-  }
-  if (params.edges) {
-    progress.beginStage("repair edges");
-    // Rings of tets around every edge that lies in faces of two or more labels.
-    struct EdgeTet {
-      uint64_t edge;
-      int32_t tet;
-      bool operator<(const EdgeTet& o) const { return edge != o.edge ? edge < o.edge : tet < o.tet; }
-    };
-    static constexpr int kEdgeEnds[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-    std::vector<EdgeTet> ring;
-    for (int64_t t = 0; t < n; ++t) {
-      bool mixed = false;
-      for (int f = 0; f < 4 && !mixed; ++f) {
-        const int32_t o = nb[size_t(4 * t + f)];
-        mixed = o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)];
-      }
-      if (!mixed) continue;
-      const auto& q = mesh.tets[size_t(t)];
-      for (const auto& e : kEdgeEnds) {
-        const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
-        ring.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), int32_t(t)});
-      }
-    }
-    std::sort(ring.begin(), ring.end());
-    std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
-    for (int round = 0; round < 4; ++round) {
-      progress.checkCancel();
-      int64_t closed = 0;
-      std::unordered_set<uint64_t> touched;
-      for (size_t i = 0; i < ring.size();) {
-        size_t j = i;
-        while (j < ring.size() && ring[j].edge == ring[i].edge) ++j;
-        if (round > 0 && !dirty.count(ring[i].edge)) {
-          i = j;
-          continue;
-        }
-        // The ring's tets must all be listed (an interior ring has >= 3 tets, each mixed or not:
-        // unmixed tets were skipped, so take the complete ring from the neighbours instead).
-        const uint32_t ea = uint32_t(ring[i].edge >> 32), eb = uint32_t(ring[i].edge);
-        std::vector<int32_t> tets;
-        {
-          // Walk the ring through the faces that contain the edge.
-          std::vector<int32_t> stack{ring[i].tet};
-          while (!stack.empty()) {
-            const int32_t t = stack.back();
-            stack.pop_back();
-            if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
-            tets.push_back(t);
-            const auto& q = mesh.tets[size_t(t)];
-            for (int f = 0; f < 4; ++f) {
-              const int32_t omitted = q[size_t(f)];
-              if (uint32_t(omitted) == ea || uint32_t(omitted) == eb) continue; // face lacks the edge
-              const int32_t o = nb[size_t(4 * t + f)];
-              if (o >= 0) stack.push_back(o);
-            }
-          }
-        }
-        i = j;
-        std::sort(tets.begin(), tets.end());
-        auto linked = [&](int32_t x, int32_t y) {
-          for (int f = 0; f < 4; ++f)
-            if (nb[size_t(4 * x + f)] == y) return true;
-          return false;
-        };
-        // Groups (arcs) of one label, and of "not that label", around the edge.
-        auto groups = [&](auto inSet) {
-          std::vector<std::vector<int32_t>> out;
-          std::vector<char> seen(tets.size(), 0);
-          for (size_t a = 0; a < tets.size(); ++a) {
-            if (seen[a] || !inSet(tets[a])) continue;
-            std::vector<int32_t> g{tets[a]};
-            seen[a] = 1;
-            for (size_t k = 0; k < g.size(); ++k)
-              for (size_t b = 0; b < tets.size(); ++b)
-                if (!seen[b] && inSet(tets[b]) && linked(g[k], tets[b])) {
-                  seen[b] = 1;
-                  g.push_back(tets[b]);
-                }
-            out.push_back(std::move(g));
-          }
-          return out;
-        };
-        std::set<int32_t> labelsHere;
-        for (int32_t t : tets) labelsHere.insert(mesh.materials[size_t(t)]);
-        for (int32_t L : labelsHere) {
-          auto isL = [&](int32_t t) { return mesh.materials[size_t(t)] == L; };
-          if (groups(isL).size() < 2) continue;
-          // Fill the smallest gap between two arcs of L whose tets may all take L.
-          auto gaps = groups([&](int32_t t) { return !isL(t); });
-          std::sort(gaps.begin(), gaps.end(), [](const auto& x, const auto& y) { return x.size() < y.size(); });
-          for (const auto& gap : gaps) {
-            bool ok = true;
-            for (int32_t t : gap)
-              for (int f = 0; f < 4 && ok; ++f) {
-                const int32_t o = nb[size_t(4 * t + f)];
-                if (o < 0 || std::find(gap.begin(), gap.end(), o) != gap.end()) continue;
-                ok = allowed.ok(L, mesh.materials[size_t(o)]);
-              }
-            if (!ok) continue;
-            for (int32_t t : gap) {
-              st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-              mesh.materials[size_t(t)] = L;
-              ++st.edgeTets;
-              const auto& q = mesh.tets[size_t(t)];
-              for (const auto& e : kEdgeEnds) {
-                const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
-                touched.insert((uint64_t(uint32_t(a)) << 32) | uint32_t(b));
-              }
-            }
-            ++closed;
-            break;
-          }
-          break; // the ring changed: its other labels next round
-        }
-      }
-      st.closedEdges += closed;
-      if (closed == 0) break;
-      dirty.swap(touched);
-    }
-  }
-
-  if (params.fragments) {
-    progress.beginStage("repair fragments");
-    const double limit = params.fragment_voxels * labels.grid.voxelVolume();
-    std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
-    for (int round = 0; round < 8; ++round) {
-      progress.checkCancel();
-      DisjointSets sets = sameLabelPieces(mesh, nb);
-      // Pieces (by root), their volume, and the primary piece of every image component.
-      std::vector<double> volume(mesh.numTets(), 0.0);
-      for (int64_t t = 0; t < n; ++t) volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
-      const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
-      // Candidates: small, not primary. Their outer faces by neighbour label.
-      std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
-      std::vector<int64_t> candidateTets;
-      for (int64_t t = 0; t < n; ++t) {
-        const int32_t r = sets.find(int32_t(t));
-        if (primary[size_t(r)] || volume[size_t(r)] >= limit) continue;
-        candidateTets.push_back(t);
-        auto& b = border[r];
-        for (int f = 0; f < 4; ++f) {
-          const int32_t o = nb[size_t(4 * t + f)];
-          if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
-          Vec3 c;
-          b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f, &c);
-        }
-      }
-      std::map<int32_t, int32_t> target; // root -> new label
-      int64_t kept = 0;
-      for (const auto& [r, b] : border) {
-        int32_t best = 0;
-        double bestArea = -1.0;
-        for (const auto& [L, area] : b) {
-          bool ok = true;
-          for (const auto& [M, unused] : b) ok = ok && allowed.ok(L, M);
-          if (ok && area > bestArea) {
-            bestArea = area;
-            best = L;
-          }
-        }
-        if (bestArea > 0.0) target[r] = best;
-        else ++kept;
-      }
-      st.keptSmallPieces = kept;
-      if (target.empty()) break;
-      ++st.fragmentRounds;
-      st.fragments += static_cast<int64_t>(target.size());
-      for (int64_t t : candidateTets) {
-        auto it = target.find(sets.find(int32_t(t)));
-        if (it == target.end()) continue;
-        mesh.materials[size_t(t)] = it->second;
-        st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-        ++st.fragmentTets;
-        vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
-      }
-    }
-  }
   countForbidden(mesh, nb, allowed, st.forbiddenFacesAfter, st.forbiddenAreaAfter);
   progress.endStage();
   return st;
