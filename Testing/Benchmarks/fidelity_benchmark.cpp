@@ -30,6 +30,7 @@
 #include "Algorithms/Quality/Certificate.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Algorithms/SizingField/SizingField.h"
+#include "Fixtures/RandomLabels.h"
 
 using namespace tetflow;
 
@@ -104,46 +105,6 @@ std::string regular(const std::string& what, const MaterialSet& mats, const Labe
   return cleaveAndRepair(what, bg, now() - a, mats, labels, stripZero);
 }
 
-LabelVolume randomLabels(std::mt19937& rng, int n) {
-  LabelVolume v;
-  GridGeometry g;
-  g.dims = {n, n, n};
-  v.allocate(g, 0);
-  // Voronoi cells of random seeds with 2..6 labels, then a few one-voxel sheets.
-  std::uniform_real_distribution<double> u(0.0, n);
-  const int seeds = 4 + int(rng() % 8), labels = 2 + int(rng() % 5);
-  std::vector<Vec3> s;
-  std::vector<int32_t> l;
-  for (int i = 0; i < seeds; ++i) {
-    s.push_back({u(rng), u(rng), u(rng)});
-    l.push_back(int32_t(rng() % labels));
-  }
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        double best = 1e300;
-        for (size_t q = 0; q < s.size(); ++q) {
-          const Vec3 d = Vec3{double(i), double(j), double(k)} - s[q];
-          if (dot(d, d) < best) {
-            best = dot(d, d);
-            v.at(i, j, k) = l[q];
-          }
-        }
-      }
-  for (int sheet = 0; sheet < 2; ++sheet) {
-    const int axis = int(rng() % 3), at = 2 + int(rng() % (n - 4));
-    const int32_t L = labels + sheet;
-    for (int a = 0; a < n; ++a)
-      for (int b = 0; b < n; ++b) {
-        int idx[3];
-        idx[axis] = at;
-        idx[(axis + 1) % 3] = a;
-        idx[(axis + 2) % 3] = b;
-        if (a > n / 4 && a < 3 * n / 4) v.at(idx[0], idx[1], idx[2]) = L;
-      }
-  }
-  return v;
-}
 } // namespace
 
 int main(int argc, char** argv) {
@@ -216,14 +177,18 @@ int main(int argc, char** argv) {
     out << regular(w, spheres, argmax, cell, false);
   }
 
-  // Random label volumes: Voronoi cells plus one-voxel sheets, 32^3, blend_sigma 1, 1.5-voxel cells.
-  out << "random label volumes (32^3 Voronoi cells of 2-6 labels plus two one-voxel sheets), regular 1.5 voxels:\n"
-      << kHeader;
-  std::mt19937 rng(11);
-  for (int c = 0; c < 6; ++c) {
-    auto lv = std::make_shared<const LabelVolume>(randomLabels(rng, 32));
-    const LabelMaterials mats(lv, 1.0);
-    out << regular("random seed 11 case " + std::to_string(c), mats, *lv, 1.5, false);
+  // Random label volumes: Voronoi cells plus one-voxel sheets, 32^3, the default blend_sigma 0.5,
+  // lattice cells of 1 and 1.5 voxels (the same six volumes at both).
+  for (double cell : {1.0, 1.5}) {
+    char w[160];
+    std::snprintf(w, sizeof w, "random label volumes (32^3 Voronoi cells of 2-6 labels plus two one-voxel sheets), regular %.1f voxels:\n", cell);
+    out << w << kHeader;
+    std::mt19937 rng(11);
+    for (int c = 0; c < 6; ++c) {
+      auto lv = std::make_shared<const LabelVolume>(test::voronoiWithSheets(rng, 32));
+      const LabelMaterials mats(lv, 0.5);
+      out << regular("random seed 11 case " + std::to_string(c), mats, *lv, cell, false);
+    }
   }
 
   std::cout << out.str().substr(out.str().find("spheres1..4"));

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <functional>
+#include <random>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/BackgroundMesh/OctreeBcc.h"
@@ -15,6 +16,7 @@
 #include "Algorithms/Quality/Certificate.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Algorithms/SizingField/SizingField.h"
+#include "Fixtures/RandomLabels.h"
 
 namespace tetflow {
 namespace {
@@ -109,6 +111,18 @@ TEST(Fidelity, ACheckerboardCornerAndAnEdgeContactKeepTheirTopology) {
 // The adaptive pipeline with every default (ComputeSizingField -> octree_bcc -> CleaveMesh, as the
 // modules' defaults are) on a 63^3 five-label segmentation with a 27-voxel material: every label and
 // component is kept. A stand-in for the Mickey image of the issue, which is not available here.
+// Random segmentations (Voronoi cells of 2..6 labels crossed by two one-voxel sheets) on a lattice
+// of one voxel: every component kept, no wrong contact, every label within 3.5 % of its voxels
+// (measured worst over seeds 11's first six volumes: -2.8 %). On 1.5-voxel cells the sheets are
+// below the lattice and lose 9-40 % (fidelity benchmark); that is not asserted.
+TEST(Fidelity, RandomSegmentationsWithOneVoxelSheetsKeepTheirTopologyOnAOneVoxelLattice) {
+  std::mt19937 rng(11);
+  for (int c = 0; c < 6; ++c) {
+    const LabelVolume v = test::voronoiWithSheets(rng, 32);
+    EXPECT_LE(cleaveAndCertify(v, 1.0), 0.035) << "case " << c;
+  }
+}
+
 TEST(Fidelity, TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation) {
   LabelVolume v = makeVolume(63, [](double x, double y, double z) {
     const double r = std::sqrt(x * x + y * y + z * z);
