@@ -57,7 +57,7 @@ int64_t maxInflatedSize(int64_t compressedBytes) {
   return compressedBytes * 1032 + 1024;
 }
 
-std::vector<char> gunzip(const char* data, size_t n, int64_t expected, const std::string& what) {
+std::vector<char> gunzip(const char* data, size_t n, int64_t expected, const std::string& what, bool exact) {
   if (expected >= 0 && expected > maxInflatedSize(static_cast<int64_t>(n))) {
     std::ostringstream m;
     m << what << ": the header announces " << expected << " bytes of data but " << n
@@ -99,6 +99,27 @@ std::vector<char> gunzip(const char* data, size_t n, int64_t expected, const std
       inflateEnd(&zs);
       throw InputError(what + ": compressed data is corrupt (" +
                        (zs.msg ? std::string(zs.msg) : std::string("zlib error")) + ")");
+    }
+  }
+  if (exact && expected >= 0 && produced == out.size() && ret != Z_STREAM_END) {
+    // Everything announced arrived: one more byte means the data are larger than the header says.
+    char extra = 0;
+    zs.next_out = reinterpret_cast<Bytef*>(&extra);
+    zs.avail_out = 1;
+    int more = Z_OK;
+    do {
+      const size_t inChunk = std::min<size_t>(n - consumed, 1u << 30);
+      zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data + consumed));
+      zs.avail_in = static_cast<uInt>(inChunk);
+      more = inflate(&zs, Z_NO_FLUSH);
+      consumed += inChunk - zs.avail_in;
+    } while (more == Z_OK && zs.avail_out == 1 && consumed < n);
+    if (zs.avail_out == 0) {
+      inflateEnd(&zs);
+      std::ostringstream m;
+      m << what << ": the compressed data hold more than the " << expected
+        << " bytes the header announces; the sizes or the type in the header are wrong";
+      throw InputError(m.str());
     }
   }
   inflateEnd(&zs);

@@ -21,8 +21,9 @@ std::string fileExtension(const std::string& path);
 bool looksGzipped(const char* data, size_t n);
 
 // Decompress a gzip (or zlib) stream. Exactly `expected` bytes are required when expected >= 0:
-// fewer is a truncated-data InputError, extra output is ignored. `what` names the file in messages.
-std::vector<char> gunzip(const char* data, size_t n, int64_t expected, const std::string& what);
+// fewer is a truncated-data InputError; more is ignored, or with `exact` an InputError too
+// (inflating stops one byte past `expected` either way). `what` names the file in messages.
+std::vector<char> gunzip(const char* data, size_t n, int64_t expected, const std::string& what, bool exact = false);
 // Upper bound of what deflate can expand `compressedBytes` into (used to refuse absurd headers).
 int64_t maxInflatedSize(int64_t compressedBytes);
 std::string gzipCompress(const char* data, size_t n, int level = 6);

@@ -810,6 +810,11 @@ void readData(const Layout& L, RawVolume& raw) {
         throw InputError(L.what + ": data are truncated: the file holds " +
                          std::to_string(available) + " bytes, expected " + std::to_string(M) +
                          " (" + std::to_string(L.count) + " " + voxelTypeName(L.type) + " values)");
+      if (L.byteSkip != -1 && available > M)
+        throw InputError(L.what + ": the file holds " + std::to_string(available) + " bytes of data but the header's " +
+                         "sizes and type announce " + std::to_string(M) + " (" + std::to_string(L.count) + " " +
+                         voxelTypeName(L.type) + " values); the sizes or the type are wrong (use 'byte skip: -1' " +
+                         "for data at the end of a longer file)");
       raw.bytes.resize(static_cast<size_t>(M));
       readAt(in, offset, reinterpret_cast<char*>(raw.bytes.data()), M, L.what);
       break;
@@ -824,7 +829,7 @@ void readData(const Layout& L, RawVolume& raw) {
                          "wrong, or the file is truncated");
       std::vector<char> packed(static_cast<size_t>(compressed));
       readAt(in, start, packed.data(), compressed, L.what);
-      std::vector<char> plain = gunzip(packed.data(), packed.size(), need, L.what);
+      std::vector<char> plain = gunzip(packed.data(), packed.size(), need, L.what, true);
       std::vector<char>().swap(packed);
       raw.bytes.resize(static_cast<size_t>(M));
       if (M > 0) std::memcpy(raw.bytes.data(), plain.data() + L.byteSkip, static_cast<size_t>(M));

@@ -250,16 +250,50 @@ void precheckNifti(const std::string& path) {
       throw InputError(m.str());
     }
   }
+  // A single-file NIfTI-1 ("n+1"); the two-file form ("ni1", .hdr + .img) is not read here.
+  if (std::memcmp(hdr.data() + 344, "n+1", 4) != 0) {
+    const bool pair = std::memcmp(hdr.data() + 344, "ni1", 4) == 0;
+    throw InputError(path + (pair ? ": is the header of a two-file NIfTI pair (magic 'ni1'); convert it to a single .nii file"
+                                  : ": the NIfTI magic at byte 344 is not 'n+1'; the header is damaged or not NIfTI-1"));
+  }
+  const int16_t datatype = i16(70);
   const int16_t bitpix = i16(72);
-  const float voxOffset = f32(108);
-  if (bitpix <= 0 || bitpix % 8) {
+  // Scalar types only, each with its size in bits.
+  static const std::pair<int16_t, int16_t> kTypes[] = {{2, 8},    {4, 16},   {8, 32},   {16, 32},  {64, 64},
+                                                       {256, 8},  {512, 16}, {768, 32}, {1024, 64}, {1280, 64}};
+  int16_t typeBits = 0;
+  for (const auto& [code, bits] : kTypes)
+    if (code == datatype) typeBits = bits;
+  if (typeBits == 0) {
     std::ostringstream m;
-    m << path << ": header bitpix = " << bitpix << " is not a whole number of bytes";
+    m << path << ": header datatype = " << datatype << " (byte 70) is not a scalar type this reader supports "
+      << "(2 uint8, 4 int16, 8 int32, 16 float32, 64 float64, 256 int8, 512 uint16, 768 uint32, 1024 int64, "
+      << "1280 uint64); the header is damaged or holds complex/RGB data";
+    throw InputError(m.str());
+  }
+  if (bitpix != typeBits) {
+    std::ostringstream m;
+    m << path << ": header bitpix = " << bitpix << " does not match datatype " << datatype << " (" << typeBits
+      << " bits); the header is damaged";
+    throw InputError(m.str());
+  }
+  const float voxOffset = f32(108);
+  if (!std::isfinite(voxOffset) || voxOffset < 348.0f || voxOffset > 1.0e9f) {
+    std::ostringstream m;
+    m << path << ": header vox_offset = " << voxOffset << " (byte 108); in a single-file NIfTI the data start at "
+      << "byte 348 or later, so the header is damaged";
     throw InputError(m.str());
   }
   const int64_t need = static_cast<int64_t>(voxOffset) + count * (bitpix / 8);
   const int64_t have = gz ? maxInflatedSize(static_cast<int64_t>(file.size()))
                           : static_cast<int64_t>(file.size());
+  if (!gz && have > need) {
+    std::ostringstream m;
+    m << path << ": the header announces " << count << " voxels of " << bitpix / 8 << " bytes from byte "
+      << voxOffset << " (" << need << " bytes in all) but the file has " << have
+      << " bytes; dim or datatype in the header is wrong";
+    throw InputError(m.str());
+  }
   if (need > have) {
     std::ostringstream m;
     m << path << ": the header announces " << count << " voxels of " << bitpix / 8
@@ -281,6 +315,9 @@ struct MetaHeader {
   int64_t headerBytes = 0; // bytes up to and including the ElementDataFile line
   bool hasTransform = false;
   double transform[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  int ndims = 0;      // NDims (0 when absent)
+  int dimSizeLine = 0, spacingLine = 0, ndimsLine = 0;
+  std::vector<double> spacing; // ElementSpacing (or ElementSize when no spacing is given)
 };
 
 MetaHeader scanMetaHeader(const std::string& path) {
@@ -311,12 +348,27 @@ MetaHeader scanMetaHeader(const std::string& path) {
     const std::string key = trim(line.substr(0, eq));
     const std::string val = trim(line.substr(eq + 1));
     std::istringstream vs(val);
-    if (key == "DimSize") {
+    if (key == "NDims") {
+      if (!(vs >> h.ndims) || h.ndims < 1) fail("NDims = '" + val + "' is not a positive whole number");
+      h.ndimsLine = lineNo;
+    } else if (key == "DimSize") {
       int64_t d;
       while (vs >> d) {
         if (d < 1) fail("DimSize has " + std::to_string(d) + "; every dimension must be >= 1");
         h.dims.push_back(d);
       }
+      if (!vs.eof()) fail("DimSize = '" + val + "' has a value that is not a whole number");
+      h.dimSizeLine = lineNo;
+    } else if (key == "ElementSpacing" || (key == "ElementSize" && h.spacingLine == 0)) {
+      h.spacing.clear();
+      double x;
+      while (vs >> x) {
+        if (!std::isfinite(x) || x <= 0.0)
+          fail(key + " has " + std::to_string(x) + "; every voxel spacing must be a positive number of mm");
+        h.spacing.push_back(x);
+      }
+      if (!vs.eof()) fail(key + " = '" + val + "' has a value that is not a number");
+      h.spacingLine = lineNo;
     } else if (key == "ElementType") {
       static const std::pair<const char*, size_t> types[] = {
           {"MET_CHAR", 1}, {"MET_UCHAR", 1}, {"MET_SHORT", 2}, {"MET_USHORT", 2},
@@ -350,6 +402,16 @@ MetaHeader scanMetaHeader(const std::string& path) {
   if (h.dims.empty()) throw InputError(path + ": no DimSize line in the MetaImage header");
   if (h.elementSize == 0) throw InputError(path + ": no ElementType line in the MetaImage header");
   if (h.dims.size() > 3) throw InputError(path + ": has more than 3 dimensions; only 3-D volumes are supported");
+  if (h.ndims != 0 && size_t(h.ndims) != h.dims.size()) {
+    lineNo = h.ndimsLine;
+    fail("NDims = " + std::to_string(h.ndims) + " but DimSize (line " + std::to_string(h.dimSizeLine) + ") has " +
+         std::to_string(h.dims.size()) + " values; they must agree");
+  }
+  if (!h.spacing.empty() && h.spacing.size() != h.dims.size()) {
+    lineNo = h.spacingLine;
+    fail("the voxel spacing has " + std::to_string(h.spacing.size()) + " values but DimSize has " +
+         std::to_string(h.dims.size()) + "; give one spacing per dimension");
+  }
   return h;
 }
 
@@ -375,6 +437,25 @@ void precheckMeta(const std::string& path, const MetaHeader& h) {
     if (!fs::exists(p, ec))
       throw InputError(path + ": its data file '" + dataPath + "' (ElementDataFile) does not exist");
     have = static_cast<int64_t>(fs::file_size(p, ec));
+  }
+  // The data must be what the header says: zlib/gzip data when CompressedData is True, and
+  // exactly sizes x type bytes when it is not.
+  if (!dataPath.empty() && have >= 2) {
+    std::ifstream d(dataPath, std::ios::binary);
+    d.seekg(h.dataFile == "LOCAL" ? h.headerBytes : 0);
+    unsigned char b[2] = {0, 0};
+    d.read(reinterpret_cast<char*>(b), 2);
+    const bool zlib = (b[0] & 0x0f) == 8 && ((unsigned(b[0]) << 8) | b[1]) % 31 == 0;
+    const bool gzip = b[0] == 0x1f && b[1] == 0x8b;
+    if (h.compressed && !zlib && !gzip)
+      throw InputError(path + ": CompressedData = True but the data (" + dataPath +
+                       ") do not start with a zlib or gzip header; set CompressedData = False if they are raw");
+  }
+  if (!h.compressed && have > need) {
+    std::ostringstream m;
+    m << path << ": the header announces " << count << " voxels of " << h.elementSize << " bytes (" << need
+      << " bytes) but the data hold " << have << " bytes; DimSize or ElementType is wrong";
+    throw InputError(m.str());
   }
   if (h.compressed) have = maxInflatedSize(have);
   if (need > have) {

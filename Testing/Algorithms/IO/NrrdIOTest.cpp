@@ -369,6 +369,13 @@ TEST(NrrdIO, ReadsGzipInBothByteOrders) {
                                    "endian: little\nencoding: gzip\nbyte skip: 5\n"
                                    "data file: i32.raw.gz\n");
   EXPECT_EQ(valuesOf<int32_t>(readNrrd(dir.file("i32.nhdr"))), vals);
+  // gzip data that inflate to more than sizes x type: refused, and inflating stops right there
+  // (a 64 MiB stream of zeros is not expanded to find out).
+  const std::string big(64 << 20, '\0');
+  writeBytes(dir.file("bomb.nrrd"), "NRRD0004\ntype: int32_t\ndimension: 3\nsizes: 2 2 2\nendian: little\n"
+                                    "encoding: gzip\n\n" + gzipCompress(big.data(), big.size()));
+  EXPECT_THROW_MSG(readNrrd(dir.file("bomb.nrrd")), InputError, "bomb.nrrd", "more than the 32 bytes",
+                   "sizes or the type");
 }
 
 TEST(NrrdIO, ReadsAsciiValues) {
@@ -416,8 +423,17 @@ TEST(NrrdIO, LineSkipAndByteSkip) {
   EXPECT_EQ(valuesOf<uint16_t>(readNrrd(dir.file("att.nrrd"))), kU16);
   writeBytes(dir.file("att2.nrrd"), "NRRD0004\ntype: uint16_t\ndimension: 3\nsizes: 2 2 2\n"
                                     "endian: little\nencoding: raw\nline skip: 1\n\nextra\n" +
-                                        bytesOf(kU16, false) + "trailing bytes are fine");
+                                        bytesOf(kU16, false));
   EXPECT_EQ(valuesOf<uint16_t>(readNrrd(dir.file("att2.nrrd"))), kU16);
+  // More bytes than sizes x type: the header is wrong (e.g. uint16 data declared uint8); an error,
+  // not a silent read of the first half.
+  writeBytes(dir.file("att3.nrrd"), "NRRD0004\ntype: uint16_t\ndimension: 3\nsizes: 2 2 2\n"
+                                    "endian: little\nencoding: raw\n\n" + bytesOf(kU16, false) + "trailing");
+  EXPECT_THROW_MSG(readNrrd(dir.file("att3.nrrd")), InputError, "att3.nrrd", "24 bytes", "announce 16",
+                   "sizes or the type are wrong");
+  writeBytes(dir.file("u8.nrrd"), "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" +
+                                      bytesOf(kU16, false));
+  EXPECT_THROW_MSG(readNrrd(dir.file("u8.nrrd")), InputError, "u8.nrrd", "16 bytes", "announce 8");
 }
 
 TEST(NrrdIO, DimensionFourWithLeadingSingletonAxis) {

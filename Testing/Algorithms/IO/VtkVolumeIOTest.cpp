@@ -296,6 +296,52 @@ TEST(VtkVolumeIO, BrokenFilesGiveClearErrors) {
                    ".nrrd");
 }
 
+// Headers that disagree with their data (issue "reliability", item 7): each a clear error, never
+// a crash (a datatype of 999 crashed VTK's reader) or a silent misread.
+TEST(VtkVolumeIO, HeadersThatDisagreeWithTheirDataAreRefused) {
+  TempDir tmp;
+  const std::vector<int16_t> vals(27, 3);
+  const std::string good = niftiBytes(false, 4, 16, {3, 3, 3}, {1, 1, 1}, {0, 0, 0}, int16Bytes(vals));
+  auto patched = [&](const std::string& name, size_t at, const void* v, size_t n, const std::string& tail = "") {
+    std::string b = good;
+    std::memcpy(b.data() + at, v, n);
+    writeBytes(tmp.file(name), b + tail);
+    return tmp.file(name);
+  };
+  const int16_t dt999 = 999, rgb = 128, bitpix8 = 8;
+  const float vox0 = 0.0f;
+  EXPECT_THROW_MSG(readVolume(patched("dt.nii", 70, &dt999, 2)), InputError, "dt.nii", "datatype = 999", "byte 70");
+  EXPECT_THROW_MSG(readVolume(patched("rgb.nii", 70, &rgb, 2)), InputError, "rgb.nii", "datatype = 128");
+  EXPECT_THROW_MSG(readVolume(patched("bits.nii", 72, &bitpix8, 2)), InputError, "bits.nii", "bitpix = 8",
+                   "datatype 4");
+  EXPECT_THROW_MSG(readVolume(patched("vox0.nii", 108, &vox0, 4)), InputError, "vox0.nii", "vox_offset = 0",
+                   "348");
+  EXPECT_THROW_MSG(readVolume(patched("pair.nii", 344, "ni1", 4)), InputError, "pair.nii", "two-file");
+  EXPECT_THROW_MSG(readVolume(patched("long.nii", 0, "\x5c\x01\0\0", 4, "extra")), InputError, "long.nii",
+                   "406 bytes in all", "411 bytes");
+  const std::string gz = tmp.file("ok.nii.gz");
+  writeBytes(gz, gzipCompress(good.data(), good.size()));
+  EXPECT_EQ(readVolume(gz).grid.voxelCount(), 27);
+
+  const std::string head = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n";
+  auto mha = [&](const std::string& name, const std::string& extra, const std::string& data) {
+    writeBytes(tmp.file(name), head + extra + "ElementDataFile = LOCAL\n" + data);
+    return tmp.file(name);
+  };
+  EXPECT_EQ(readVolume(mha("ok.mha", "ElementSpacing = 1 2 3\n", "abcdefgh")).grid.spacing, (Vec3{1, 2, 3}));
+  EXPECT_THROW_MSG(readVolume(mha("z.mha", "CompressedData = True\n", "abcdefgh")), InputError, "z.mha",
+                   "CompressedData = True", "zlib");
+  EXPECT_THROW_MSG(readVolume(mha("neg.mha", "ElementSpacing = 1 -2 1\n", "abcdefgh")), InputError, "neg.mha:5",
+                   "ElementSpacing has -2", "positive");
+  EXPECT_THROW_MSG(readVolume(mha("cnt.mha", "ElementSpacing = 1 1\n", "abcdefgh")), InputError, "cnt.mha:5",
+                   "2 values", "DimSize has 3");
+  EXPECT_THROW_MSG(readVolume(mha("long.mha", "", "abcdefghij")), InputError, "long.mha", "10 bytes",
+                   "DimSize or ElementType is wrong");
+  writeBytes(tmp.file("nd.mha"), "ObjectType = Image\nNDims = 2\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+                                 "ElementDataFile = LOCAL\nabcdefgh");
+  EXPECT_THROW_MSG(readVolume(tmp.file("nd.mha")), InputError, "nd.mha:2", "NDims = 2", "3 values");
+}
+
 TEST(VtkVolumeIO, FloatVolumeWithNaNIsRefusedAsScalarAndNonIntegerAsLabel) {
   TempDir tmp;
   RawVolume v = randomRaw(VoxelType::Float32, {3, 3, 3}, 5);
