@@ -44,6 +44,8 @@ public:
   }
 
 private:
+  static constexpr int kMaxDepth = 256;
+  int depth_ = 0;
   [[noreturn]] void fail(const std::string& msg) { throw XmlError(line_, msg); }
   bool starts(const char* p) const { return s_.compare(pos_, std::strlen(p), p) == 0; }
   void advance(size_t n) {
@@ -145,6 +147,16 @@ private:
     return out;
   }
   std::unique_ptr<XmlElement> element() {
+    // Elements nest by recursion here (and in ~XmlElement): bound the depth so that a file of
+    // 200 000 nested elements is an error, not a stack overflow. A network needs 4 levels.
+    if (depth_ >= kMaxDepth)
+      fail("elements nested more than " + std::to_string(kMaxDepth) + " deep; a .srn network has 4 levels "
+           "(network, modules, module, var), so this is not a network file");
+    struct Level {
+      int& d;
+      explicit Level(int& x) : d(++x) {}
+      ~Level() { --d; }
+    } level(depth_);
     auto el = std::make_unique<XmlElement>();
     el->line = line_;
     advance(1); // '<'

@@ -124,6 +124,13 @@ TEST_F(SrnFixture, MalformedXmlNamesTheLine) {
   EXPECT_EQ(problemsOf("").at(0).message, "malformed XML: no root element (empty or not an XML file)");
   EXPECT_NE(problemsOf("<html></html>").at(0).message.find("expected <network>"), std::string::npos);
   EXPECT_NE(problemsOf("<network a=\"x & y\"/>").at(0).message.find("&amp;"), std::string::npos);
+  // 200 000 nested elements crashed the parser (stack overflow); now an error at the 257th level.
+  std::string deep = "<network>\n";
+  for (int i = 0; i < 200000; ++i) deep += "<a>";
+  const auto d = problemsOf(deep);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].line, 2);
+  EXPECT_NE(d[0].message.find("nested more than 256 deep"), std::string::npos) << d[0].message;
 }
 
 TEST_F(SrnFixture, TheRealSCIRunExampleListsAllItsUnknownModules) {
