@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <regex>
+#include <vector>
 
 #include "Algorithms/IO/FileUtil.h"
 #include "TestUtil.h"
@@ -195,4 +197,35 @@ TEST(Cli, CertifyComparesAMeshWithItsLabelsAndFailsOnThresholds) {
   r = run("certify " + tmp.file("nothing.vtu") + " " + tmp.file("blob.nrrd"));
   EXPECT_EQ(r.code, 3);
   EXPECT_NE(r.out.find("nothing.vtu: file not found"), std::string::npos) << r.out;
+}
+
+// The default net gives a bit-identical mesh and the same report (timings and the output path
+// aside) on 1 and 2 threads and across runs (issue "reliability", item 8).
+TEST(Cli, TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns) {
+  tetflow::test::TempDir tmp;
+  const std::string net = std::string(TETFLOW_SOURCE_DIR) + "/Nets/default.srn";
+  auto normalized = [&](const std::string& json, const std::string& dir) {
+    const auto bytes = tetflow::readFileBytes(json);
+    std::string s(bytes.begin(), bytes.end());
+    s = std::regex_replace(s, std::regex("(\"[A-Za-z_]*seconds[A-Za-z_]*\": )[-0-9.eE+]+"), "$1T");
+    for (size_t at = s.find(dir); at != std::string::npos; at = s.find(dir)) s.replace(at, dir.size(), "OUT");
+    return s;
+  };
+  std::vector<std::string> meshes, reports;
+  int runNo = 0;
+  for (int threads : {1, 2, 2}) {
+    const std::string dir = tmp.file("run" + std::to_string(runNo++));
+    const Result r = run("run " + net + " --quiet --threads " + std::to_string(threads) + " --output-dir " + dir +
+                         " --report " + dir + ".json");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto mesh = tetflow::readFileBytes(dir + "/head.vtu");
+    meshes.emplace_back(mesh.begin(), mesh.end());
+    reports.push_back(normalized(dir + ".json", dir));
+  }
+  EXPECT_GT(meshes[0].size(), 1000000u);
+  EXPECT_TRUE(meshes[0] == meshes[1]) << "1 vs 2 threads: the meshes differ";
+  EXPECT_TRUE(meshes[1] == meshes[2]) << "two runs on 2 threads: the meshes differ";
+  EXPECT_EQ(reports[0], reports[1]);
+  EXPECT_EQ(reports[1], reports[2]);
+  EXPECT_NE(reports[0].find("\"cert_components_split\""), std::string::npos) << "the certificate is part of the comparison";
 }
