@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <deque>
+#include <filesystem>
 #include <set>
 
 namespace tetflow {
@@ -291,6 +292,49 @@ std::vector<std::string> Network::topologicalOrder() const {
     if (!progressed) break; // cannot happen: connect() refuses cycles
   }
   return order;
+}
+
+std::vector<std::string> Network::fileConflicts() const {
+  namespace fs = std::filesystem;
+  struct Use {
+    std::string module, param, shown;
+  };
+  auto resolve = [&](const std::string& p, bool output) {
+    fs::path q(p);
+    const std::string& base = output && !outputDir_.empty() ? outputDir_ : baseDir_;
+    if (q.is_relative() && !base.empty()) q = fs::path(base) / q;
+    std::error_code ec;
+    const fs::path c = fs::weakly_canonical(q, ec);
+    return (ec ? q.lexically_normal() : c).string();
+  };
+  std::map<std::string, std::vector<Use>> reads, writes;
+  for (const auto& m : modules_)
+    for (const auto& spec : m.info->params) {
+      if (!spec.isInputPath && !spec.isOutputPath) continue;
+      const auto it = m.params.find(spec.name);
+      if (it == m.params.end()) continue;
+      std::vector<std::string> names;
+      if (const auto* s = std::get_if<std::string>(&it->second)) names.push_back(*s);
+      else if (const auto* l = std::get_if<std::vector<std::string>>(&it->second)) names = *l;
+      for (const auto& n : names) {
+        if (n.empty()) continue;
+        auto& into = spec.isOutputPath ? writes : reads;
+        into[resolve(n, spec.isOutputPath)].push_back({m.id, spec.name, n});
+      }
+    }
+  std::vector<std::string> out;
+  for (const auto& [file, ws] : writes) {
+    if (const auto r = reads.find(file); r != reads.end())
+      for (const Use& w : ws)
+        for (const Use& u : r->second)
+          out.push_back("module " + w.module + " parameter " + w.param + " writes '" + w.shown + "' (" + file +
+                        "), which module " + u.module + " reads through " + u.param +
+                        "; the run would overwrite its own input: choose another output file name");
+    for (size_t i = 1; i < ws.size(); ++i)
+      out.push_back("modules " + ws[0].module + " (" + ws[0].param + ") and " + ws[i].module + " (" + ws[i].param +
+                    ") both write '" + file + "'; one output would be lost: give each writer its own file");
+  }
+  return out;
 }
 
 } // namespace tetflow

@@ -101,6 +101,11 @@ public:
   // `--output-dir`); input files still resolve against baseDir.
   const std::string& outputDir() const { return outputDir_; }
   void setOutputDir(const std::string& d) { outputDir_ = d; }
+  // Output files that would destroy data: an output parameter naming a file that some module
+  // reads (e.g. WriteVolume over the net's own ReadLabelVolume input), or two output parameters
+  // naming one file. One message per conflict, naming both modules and parameters and the file;
+  // empty when there is none. Paths resolve as the modules resolve them (baseDir, outputDir).
+  std::vector<std::string> fileConflicts() const;
 
 private:
   ModuleNode* findModule(const std::string& id);

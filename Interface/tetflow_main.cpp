@@ -146,6 +146,13 @@ int loadForCli(const std::string& path, const ModuleRegistry& reg, const std::ve
   return problems.empty() ? 0 : kExitLoad;
 }
 
+// Outputs that would overwrite an input of the net or another output: printed, true when any.
+bool reportFileConflicts(const Network& net, const std::string& path) {
+  const auto conflicts = net.fileConflicts();
+  for (const auto& c : conflicts) std::cerr << "tetflow: " << path << ": " << c << "\n";
+  return !conflicts.empty();
+}
+
 std::string summaryLine(const ModuleNode& m, const ModuleState& s) {
   char head[160];
   std::snprintf(head, sizeof head, "%-5s %-22s %-9s %8.3f s", m.id.c_str(), m.info->name.c_str(),
@@ -171,6 +178,7 @@ int runNetwork(Network* net, const RunArgs& args,
     }
     net->setOutputDir(args.outputDir);
   }
+  if (reportFileConflicts(*net, args.net)) return kExitLoad;
   // Check the report target before spending time on the run.
   if (!args.report.empty()) {
     try {
@@ -373,6 +381,7 @@ int cmdValidate(const RunArgs& args, const ModuleRegistry& reg) {
                   << ") is not connected\n";
         ++missing;
       }
+  if (reportFileConflicts(*net, args.net)) ++missing;
   if (missing) return kExitLoad;
   std::printf("%s: valid (%zu modules, %zu connections)\n", args.net.c_str(), net->modules().size(),
               net->connections().size());

@@ -229,3 +229,43 @@ TEST(Cli, TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns) {
   EXPECT_EQ(reports[1], reports[2]);
   EXPECT_NE(reports[0].find("\"cert_components_split\""), std::string::npos) << "the certificate is part of the comparison";
 }
+
+// A net that would write over its own input, or write one file twice, is refused before anything
+// runs (exit 3), by run and by validate, and the input stays as it was (issue "reliability", 7).
+TEST(Cli, ANetThatWritesOverItsOwnInputOrTwiceToOneFileIsRefused) {
+  tetflow::test::TempDir tmp;
+  std::filesystem::create_directory(tmp.path() / "out");
+  ASSERT_EQ(run("run " + tmp.file("n.srn")).code, 3); // missing file: load error
+  write(tmp.file("n.srn"), kNet);
+  ASSERT_EQ(run("run " + tmp.file("n.srn") + " --quiet").code, 0);
+  const auto before = tetflow::readFileBytes(tmp.file("out/sphere.nrrd"));
+  const std::string over = R"(<?xml version="1.0"?>
+<network version="tetflow-1">
+  <modules>
+    <module id="m1" name="ReadLabelVolume"><var name="filename" val="{out/sphere.nrrd}"/></module>
+    <module id="m2" name="WriteVolume"><var name="filename" val="{out/../out/sphere.nrrd}"/></module>
+  </modules>
+  <connections><connection id="c1" from="m1" fromport="0" to="m2" toport="0"/></connections>
+</network>
+)";
+  write(tmp.file("over.srn"), over);
+  for (const std::string cmd : {"run ", "validate "}) {
+    const Result r = run(cmd + tmp.file("over.srn"));
+    EXPECT_EQ(r.code, 3) << r.out;
+    EXPECT_NE(r.out.find("module m2 parameter filename writes 'out/../out/sphere.nrrd'"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("which module m1 reads through filename"), std::string::npos) << r.out;
+  }
+  EXPECT_EQ(tetflow::readFileBytes(tmp.file("out/sphere.nrrd")), before);
+  // --output-dir moves the writer elsewhere: then it is allowed.
+  std::filesystem::create_directories(tmp.path() / "elsewhere" / "out");
+  EXPECT_EQ(run("run " + tmp.file("over.srn") + " --quiet --output-dir " + tmp.file("elsewhere")).code, 0);
+
+  std::string twice = kNet;
+  twice.replace(twice.find("  </modules>"), 0,
+                "    <module id=\"m3\" name=\"WriteVolume\"><var name=\"filename\" val=\"{out/sphere.nrrd}\"/></module>\n");
+  twice.replace(twice.find("  </connections>"), 0, "    <connection id=\"c2\" from=\"m1\" fromport=\"0\" to=\"m3\" toport=\"0\"/>\n");
+  write(tmp.file("twice.srn"), twice);
+  const Result r = run("run " + tmp.file("twice.srn"));
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("modules m2 (filename) and m3 (filename) both write"), std::string::npos) << r.out;
+}
