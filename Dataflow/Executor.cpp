@@ -262,6 +262,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
                            portTypeName(node.info->inputs[p].type()) + " to it");
       progress.checkCancel();
       auto module = node.info->factory();
+      const ScopedCurrentProgress current(&progress);
       module->execute(ctx);
       progress.endStage();
     } catch (const Cancelled&) {

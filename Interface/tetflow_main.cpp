@@ -10,7 +10,7 @@
 //
 // Exit status: 0 all modules succeeded; 1 a module failed (downstream ones skipped); 2 bad
 // command-line arguments; 3 the network file cannot be loaded or a --set is invalid for it;
-// 4 the --report file cannot be written; 130 cancelled by Ctrl-C.
+// 4 the --report file cannot be written; 130 cancelled by Ctrl-C, 143 by SIGTERM.
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -37,12 +37,15 @@ constexpr int kExitModuleFailed = 1;
 constexpr int kExitUsage = 2;
 constexpr int kExitLoad = 3;
 constexpr int kExitReport = 4;
-constexpr int kExitCancelled = 130;
+constexpr int kExitCancelled = 130;  // SIGINT
+constexpr int kExitTerminated = 143; // SIGTERM
 
+// SIGINT (Ctrl-C) and SIGTERM cancel the run: modules stop at their next check, temp files
+// go, no output is replaced; the exit status is 128 + the signal (130, 143).
 volatile std::sig_atomic_t g_interrupted = 0;
-extern "C" void onSigint(int) {
-  g_interrupted = 1;
-  std::signal(SIGINT, SIG_DFL); // a second Ctrl-C ends the process at once
+extern "C" void onSigint(int sig) {
+  g_interrupted = sig;
+  std::signal(sig, SIG_DFL); // a second signal ends the process at once
 }
 
 const char* kUsage =
@@ -65,7 +68,7 @@ const char* kUsage =
     "  --strict               all three (volume error 3 % unless given)\n"
     "  --output MESH          write the mesh with the certificate_flags cell field\n"
     "exit status: 0 success, 1 module failed, 2 bad arguments, 3 network cannot be loaded,\n"
-    "             4 report cannot be written, 130 cancelled\n";
+    "             4 report cannot be written, 130 cancelled (Ctrl-C), 143 terminated (SIGTERM)\n";
 
 int usageError(const std::string& msg) {
   std::cerr << "tetflow: " << msg << "\n" << kUsage;
@@ -209,6 +212,7 @@ int runNetwork(Network* net, const RunArgs& args,
 
   g_interrupted = 0;
   std::signal(SIGINT, onSigint);
+  std::signal(SIGTERM, onSigint);
   std::atomic<bool> done{false};
   std::thread watcher([&] {
     while (!done.load()) {
@@ -231,6 +235,7 @@ int runNetwork(Network* net, const RunArgs& args,
   done = true;
   watcher.join();
   std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
   if (after) after(exec);
 
   if (!args.quiet) {
@@ -249,8 +254,8 @@ int runNetwork(Network* net, const RunArgs& args,
     }
   }
   if (sum.cancelled > 0 || g_interrupted) {
-    std::cerr << "tetflow: cancelled\n";
-    return kExitCancelled;
+    std::cerr << "tetflow: cancelled" << (g_interrupted == SIGTERM ? " (SIGTERM)" : "") << "\n";
+    return g_interrupted == SIGTERM ? kExitTerminated : kExitCancelled;
   }
   return sum.success ? 0 : kExitModuleFailed;
 }
@@ -435,6 +440,9 @@ int cmdDescribe(const std::string& name, const ModuleRegistry& reg) {
 } // namespace
 
 int main(int argc, char** argv) {
+  // A write past the file-size limit (ulimit -f) fails with EFBIG and a clear error, instead of
+  // SIGXFSZ killing the process with a temp file left behind.
+  std::signal(SIGXFSZ, SIG_IGN);
   std::vector<std::string> a(argv + 1, argv + argc);
   if (a.empty()) return usageError("no command given");
   ModuleRegistry reg;

@@ -17,4 +17,12 @@ void Progress::endStage() {
   inStage_ = false;
 }
 
+namespace {
+thread_local Progress* tCurrent = nullptr;
+}
+
+Progress* currentProgress() { return tCurrent; }
+ScopedCurrentProgress::ScopedCurrentProgress(Progress* p) : previous_(tCurrent) { tCurrent = p; }
+ScopedCurrentProgress::~ScopedCurrentProgress() { tCurrent = previous_; }
+
 } // namespace tetflow

@@ -50,4 +50,20 @@ private:
 // A sink that only records stage times and honours cancellation.
 class NullProgress : public Progress {};
 
+// The progress sink of the module running on this thread (set by the executor for the duration
+// of a module), or nullptr. Lets deep helpers that have no Progress parameter honour
+// cancellation: an atomic output file checks it before it replaces its target, so a cancelled
+// run never replaces an old output.
+Progress* currentProgress();
+class ScopedCurrentProgress {
+public:
+  explicit ScopedCurrentProgress(Progress* p);
+  ~ScopedCurrentProgress();
+  ScopedCurrentProgress(const ScopedCurrentProgress&) = delete;
+  ScopedCurrentProgress& operator=(const ScopedCurrentProgress&) = delete;
+
+private:
+  Progress* previous_;
+};
+
 } // namespace tetflow

@@ -1,5 +1,7 @@
 #include "FileUtil.h"
 
+#include "Algorithms/Core/Progress.h"
+
 #include <zlib.h>
 
 #include <algorithm>
@@ -208,6 +210,8 @@ void AtomicOutputFile::commit() {
     if (!ok || out_.fail())
       throw InputError(target_ + ": write failed (disk full or I/O error); nothing was written");
   }
+  // A cancelled run keeps the old file: the temp file goes (destructor), the target stays.
+  if (Progress* p = currentProgress()) p->checkCancel();
   std::error_code ec;
   fs::rename(temp_, target_, ec);
   if (ec) throw InputError(target_ + ": cannot replace the file (" + ec.message() + ")");

@@ -269,3 +269,33 @@ TEST(Cli, ANetThatWritesOverItsOwnInputOrTwiceToOneFileIsRefused) {
   EXPECT_EQ(r.code, 3) << r.out;
   EXPECT_NE(r.out.find("modules m2 (filename) and m3 (filename) both write"), std::string::npos) << r.out;
 }
+
+// A real SIGTERM or SIGINT during a run of the default net: the run stops (exit 143 / 130), the
+// output written before stays as it was, and no temp file is left (issue "reliability", item 5).
+TEST(Cli, ASignalDuringARunCancelsItAndKeepsTheOldOutput) {
+  tetflow::test::TempDir tmp;
+  const std::string net = std::string(TETFLOW_SOURCE_DIR) + "/Nets/default.srn";
+  const std::string out = tmp.file("out");
+  std::filesystem::create_directory(out);
+  for (const auto& [sig, code] : {std::pair{"TERM", 143}, std::pair{"INT", 130}}) {
+    write(out + "/head.vtu", "the old output");
+    // The shell starts the run, signals it after 1.5 s (it is cleaving then; the whole run takes
+    // about 4 s) and reports its exit status.
+    const std::string cmd = "sh -c '" + std::string(TETFLOW_CLI) + " run " + net + " --quiet --output-dir " + out +
+                            " & p=$!; sleep 1.5; kill -" + sig + " $p; wait $p; echo status=$?' 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string text;
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) text.append(buf.data(), n);
+    pclose(p);
+    EXPECT_NE(text.find("status=" + std::to_string(code)), std::string::npos) << sig << ": " << text;
+    EXPECT_NE(text.find("cancelled"), std::string::npos) << text;
+    const auto bytes = tetflow::readFileBytes(out + "/head.vtu");
+    EXPECT_EQ(std::string(bytes.begin(), bytes.end()), "the old output") << sig;
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(out)) names.push_back(e.path().filename().string());
+    EXPECT_EQ(names, std::vector<std::string>{"head.vtu"}) << sig << ": a temp file was left";
+  }
+}

@@ -2,6 +2,8 @@
 // an independent parser, and broken / unwritable inputs.
 #include "Algorithms/IO/MeshIO.h"
 
+#include "Algorithms/Core/Progress.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -1066,6 +1068,28 @@ TEST(MeshIOWrite, FailedWriteKeepsOldFile) {
   EXPECT_THROW(writeMesh(dir.file("keep.vtu"), bad), InputError);
   expectSameGeometry(good, readMesh(dir.file("keep.vtu")));
   EXPECT_EQ(dirEntries(dir.path()), std::vector<std::string>{"keep.vtu"});
+}
+
+// A write whose module was cancelled keeps the old file and leaves no temp file, for our own
+// writers and VTK's alike (the commit checks the running module's progress sink).
+TEST(MeshIOWrite, ACancelledWriteKeepsTheOldFile) {
+  TempDir dir;
+  const TetMesh good = cubeMesh();
+  for (const std::string name : {"keep.vtu", "keep.vtk", "keep.node"}) {
+    writeMesh(dir.file(name), good);
+    TetMesh other = good;
+    other.points[0][0] += 0.25;
+    NullProgress cancelled;
+    cancelled.requestCancel();
+    {
+      const ScopedCurrentProgress current(&cancelled);
+      EXPECT_THROW(writeMesh(dir.file(name), other), Cancelled) << name;
+    }
+    expectSameGeometry(good, readMesh(dir.file(name)));
+    writeMesh(dir.file(name), other); // no module running: written
+    expectSameGeometry(other, readMesh(dir.file(name)));
+  }
+  EXPECT_EQ(dirEntries(dir.path()).size(), 4u) << "keep.vtu, keep.vtk, keep.node, keep.ele and nothing else";
 }
 
 } // namespace
