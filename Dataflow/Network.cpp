@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <deque>
 #include <filesystem>
+#include <queue>
 #include <set>
 
 namespace tetflow {
@@ -23,15 +24,18 @@ int nextNumber(const std::string& prefix, const std::vector<std::string>& ids) {
 } // namespace
 
 ModuleNode* Network::findModule(const std::string& id) {
-  for (auto& m : modules_)
-    if (m.id == id) return &m;
-  return nullptr;
+  const auto it = index_.find(id);
+  return it == index_.end() ? nullptr : &modules_[it->second];
 }
 
 const ModuleNode* Network::module(const std::string& id) const {
-  for (const auto& m : modules_)
-    if (m.id == id) return &m;
-  return nullptr;
+  const auto it = index_.find(id);
+  return it == index_.end() ? nullptr : &modules_[it->second];
+}
+
+void Network::reindex() {
+  index_.clear();
+  for (size_t i = 0; i < modules_.size(); ++i) index_[modules_[i].id] = i;
 }
 
 const ModuleNode& Network::requireModule(const std::string& id) const {
@@ -89,6 +93,7 @@ std::string Network::addModule(const std::string& name, const std::string& idIn,
   n.x = x;
   n.y = y;
   modules_.push_back(std::move(n));
+  index_[modules_.back().id] = modules_.size() - 1;
   notify(NetworkEvent::Kind::ModuleAdded, id);
   return id;
 }
@@ -102,6 +107,7 @@ void Network::removeModule(const std::string& id) {
   modules_.erase(std::remove_if(modules_.begin(), modules_.end(),
                                 [&](const ModuleNode& m) { return m.id == id; }),
                  modules_.end());
+  reindex();
   notify(NetworkEvent::Kind::ModuleRemoved, id);
 }
 
@@ -238,6 +244,7 @@ void Network::disconnect(const std::string& connectionId) {
 
 void Network::clear() {
   modules_.clear();
+  index_.clear();
   connections_.clear();
   notify(NetworkEvent::Kind::Cleared, "");
 }
@@ -272,24 +279,28 @@ std::vector<std::string> Network::downstreamClosure(const std::vector<std::strin
 }
 
 std::vector<std::string> Network::topologicalOrder() const {
-  std::map<std::string, int> indeg;
-  for (const auto& m : modules_) indeg[m.id] = 0;
-  for (const auto& c : connections_) ++indeg[c.to];
+  // Kahn's algorithm, picking the earliest-inserted ready module each time (a min-heap of
+  // positions): O((modules + connections) log modules).
+  const size_t n = modules_.size();
+  std::vector<int> indeg(n, 0);
+  std::vector<std::vector<size_t>> next(n);
+  for (const auto& c : connections_) {
+    const auto f = index_.find(c.from), t = index_.find(c.to);
+    if (f == index_.end() || t == index_.end()) continue;
+    next[f->second].push_back(t->second);
+    ++indeg[t->second];
+  }
+  std::priority_queue<size_t, std::vector<size_t>, std::greater<size_t>> ready;
+  for (size_t i = 0; i < n; ++i)
+    if (indeg[i] == 0) ready.push(i);
   std::vector<std::string> order;
-  std::set<std::string> done;
-  // Kahn's algorithm, picking the earliest-inserted ready module each time.
-  while (order.size() < modules_.size()) {
-    bool progressed = false;
-    for (const auto& m : modules_) {
-      if (done.count(m.id) || indeg[m.id] != 0) continue;
-      order.push_back(m.id);
-      done.insert(m.id);
-      for (const auto& c : connections_)
-        if (c.from == m.id) --indeg[c.to];
-      progressed = true;
-      break;
-    }
-    if (!progressed) break; // cannot happen: connect() refuses cycles
+  order.reserve(n);
+  while (!ready.empty()) { // fewer than n only with a cycle, which connect() refuses
+    const size_t i = ready.top();
+    ready.pop();
+    order.push_back(modules_[i].id);
+    for (size_t j : next[i])
+      if (--indeg[j] == 0) ready.push(j);
   }
   return order;
 }

@@ -11,6 +11,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "Module.h"
@@ -113,7 +114,10 @@ private:
   std::vector<std::string> pathBetween(const std::string& a, const std::string& b) const;
 
   const ModuleRegistry* registry_;
+  void reindex();
+
   std::vector<ModuleNode> modules_;
+  std::unordered_map<std::string, size_t> index_; // module id -> position in modules_
   std::vector<Connection> connections_;
   std::map<int, Listener> listeners_;
   int nextListener_ = 1;
