@@ -102,6 +102,13 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
   } guard{running_};
   cancel_.store(false);
   const auto t0 = std::chrono::steady_clock::now();
+  // Outputs that would overwrite one of the net's inputs or each other: refused before anything
+  // runs (the GUI's Run; the command line checks first and exits 3).
+  if (const auto conflicts = netIn.fileConflicts(); !conflicts.empty()) {
+    std::string m = "the network would lose data: ";
+    for (size_t i = 0; i < conflicts.size(); ++i) m += (i ? "; " : "") + conflicts[i];
+    throw InputError(m);
+  }
 
   // Snapshot of the network.
   const std::vector<ModuleNode> nodes = netIn.modules();

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "Algorithms/IO/FileUtil.h"
+#include "Dataflow/Executor.h"
 #include "Dataflow/NetworkFile.h"
 #include "Modules/StandardModules.h"
 
@@ -28,4 +29,27 @@ TEST(Nets, EveryExampleNetworkIsCanonical) {
         }
   }
   EXPECT_GE(count, 3);
+}
+
+// The executor itself (what the GUI's Run calls) refuses a net that writes over its own input.
+TEST(Nets, TheExecutorRefusesANetThatWritesOverItsOwnInput) {
+  tetflow::ModuleRegistry reg;
+  tetflow::registerStandardModules(reg);
+  tetflow::Network net(reg);
+  net.setBaseDir("/tmp/somewhere");
+  net.addModule("ReadLabelVolume", "m1");
+  net.addModule("WriteVolume", "m2");
+  net.setParameterText("m1", "filename", "in/labels.nrrd");
+  net.setParameterText("m2", "filename", "in/./labels.nrrd");
+  net.connect("m1", 0, "m2", 0);
+  tetflow::Executor exec;
+  try {
+    exec.execute(net);
+    FAIL() << "executed";
+  } catch (const tetflow::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("would lose data: module m2 parameter filename writes 'in/./labels.nrrd'"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(exec.state("m1"), nullptr) << "nothing ran";
 }
