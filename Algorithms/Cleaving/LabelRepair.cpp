@@ -103,8 +103,7 @@ void countForbidden(const TetMesh& mesh, const std::vector<int32_t>& nb, const A
         const int32_t o = nb[size_t(4 * t + f)];
         if (o <= t || allowed.ok(mesh.materials[size_t(t)], mesh.materials[size_t(o)])) continue;
         ++count[size_t(b)];
-        Vec3 c;
-        sum[size_t(b)] += tetFaceArea(mesh, size_t(t), f, &c);
+        sum[size_t(b)] += tetFaceArea(mesh, size_t(t), f);
       }
   faces = 0;
   area = 0.0;
@@ -180,18 +179,10 @@ void repairContacts(Steps& s) {
 void repairPointContacts(Steps& s) {
   auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
   progress.beginStage("repair point contacts");
-  // Vertex stars (CSR).
   const size_t nP = mesh.numPoints();
-  std::vector<int64_t> off(nP + 1, 0);
-  for (const auto& q : mesh.tets)
-    for (int a = 0; a < 4; ++a) ++off[size_t(q[size_t(a)]) + 1];
-  for (size_t p = 0; p < nP; ++p) off[p + 1] += off[p];
-  std::vector<int32_t> star(static_cast<size_t>(off[nP]));
-  {
-    std::vector<int64_t> pos(off.begin(), off.end() - 1);
-    for (int64_t t = 0; t < n; ++t)
-      for (int a = 0; a < 4; ++a) star[size_t(pos[size_t(mesh.tets[size_t(t)][size_t(a)])]++)] = int32_t(t);
-  }
+  const VertexStars stars = vertexStars(mesh);
+  const std::vector<int64_t>& off = stars.offset;
+  const std::vector<int32_t>& star = stars.tets;
   for (int round = 0; round < 4; ++round) {
     progress.checkCancel();
     int64_t fixed = 0;
@@ -350,6 +341,11 @@ void repairEdges(Steps& s) {
     bool operator<(const EdgeTet& o) const { return edge != o.edge ? edge < o.edge : tet < o.tet; }
   };
   static constexpr int kEdgeEnds[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  auto edgeKey = [&](int32_t t, const int (&e)[2]) {
+    const auto& q = mesh.tets[size_t(t)];
+    const int32_t a = std::min(q[size_t(e[0])], q[size_t(e[1])]), b = std::max(q[size_t(e[0])], q[size_t(e[1])]);
+    return (uint64_t(uint32_t(a)) << 32) | uint32_t(b);
+  };
   std::vector<EdgeTet> ring;
   for (int64_t t = 0; t < n; ++t) {
     bool mixed = false;
@@ -358,11 +354,7 @@ void repairEdges(Steps& s) {
       mixed = o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)];
     }
     if (!mixed) continue;
-    const auto& q = mesh.tets[size_t(t)];
-    for (const auto& e : kEdgeEnds) {
-      const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
-      ring.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), int32_t(t)});
-    }
+    for (const auto& e : kEdgeEnds) ring.push_back({edgeKey(int32_t(t), e), int32_t(t)});
   }
   std::sort(ring.begin(), ring.end());
   std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
@@ -444,11 +436,7 @@ void repairEdges(Steps& s) {
             st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
             mesh.materials[size_t(t)] = L;
             ++st.edgeTets;
-            const auto& q = mesh.tets[size_t(t)];
-            for (const auto& e : kEdgeEnds) {
-              const int32_t a = std::min(q[e[0]], q[e[1]]), b = std::max(q[e[0]], q[e[1]]);
-              touched.insert((uint64_t(uint32_t(a)) << 32) | uint32_t(b));
-            }
+            for (const auto& e : kEdgeEnds) touched.insert(edgeKey(t, e));
           }
           ++closed;
           break;
@@ -485,8 +473,7 @@ void repairFragments(Steps& s) {
       for (int f = 0; f < 4; ++f) {
         const int32_t o = nb[size_t(4 * t + f)];
         if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
-        Vec3 c;
-        b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f, &c);
+        b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f);
       }
     }
     std::map<int32_t, int32_t> target; // root -> new label

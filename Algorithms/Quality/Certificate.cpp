@@ -387,16 +387,9 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   // --- interfaces: non-manifold vertices (vertex stars) ------------------------------------
   const size_t nP = mesh.numPoints();
-  std::vector<int64_t> off(nP + 1, 0);
-  for (const auto& q : mesh.tets)
-    for (int a = 0; a < 4; ++a) ++off[size_t(q[a]) + 1];
-  for (size_t p = 0; p < nP; ++p) off[p + 1] += off[p];
-  std::vector<int32_t> star(static_cast<size_t>(off[nP]));
-  {
-    std::vector<int64_t> pos(off.begin(), off.end() - 1);
-    for (int64_t t = 0; t < nTets; ++t)
-      for (int a = 0; a < 4; ++a) star[size_t(pos[size_t(mesh.tets[size_t(t)][a])]++)] = static_cast<int32_t>(t);
-  }
+  const VertexStars stars = vertexStars(mesh);
+  const std::vector<int64_t>& off = stars.offset;
+  const std::vector<int32_t>& star = stars.tets;
   std::vector<uint8_t> badVertex(nP, 0);
   std::vector<std::map<int32_t, int64_t>> badPerLabel(static_cast<size_t>(omp_get_max_threads()));
 #pragma omp parallel

@@ -190,8 +190,22 @@ double tetFaceArea(const TetMesh& m, size_t t, int f, Vec3* centre) {
   const Vec3& a = m.points[static_cast<size_t>(q[kTetFaceVertices[f][0]])];
   const Vec3& b = m.points[static_cast<size_t>(q[kTetFaceVertices[f][1]])];
   const Vec3& c = m.points[static_cast<size_t>(q[kTetFaceVertices[f][2]])];
-  *centre = (1.0 / 3.0) * (a + b + c);
+  if (centre) *centre = (1.0 / 3.0) * (a + b + c);
   return 0.5 * norm(cross(b - a, c - a));
+}
+
+VertexStars vertexStars(const TetMesh& mesh) {
+  const size_t nP = mesh.numPoints();
+  VertexStars s;
+  s.offset.assign(nP + 1, 0);
+  for (const auto& q : mesh.tets)
+    for (int a = 0; a < 4; ++a) ++s.offset[size_t(q[size_t(a)]) + 1];
+  for (size_t p = 0; p < nP; ++p) s.offset[p + 1] += s.offset[p];
+  s.tets.resize(static_cast<size_t>(s.offset[nP]));
+  std::vector<int64_t> pos(s.offset.begin(), s.offset.end() - 1);
+  for (size_t t = 0; t < mesh.numTets(); ++t)
+    for (int a = 0; a < 4; ++a) s.tets[size_t(pos[size_t(mesh.tets[t][size_t(a)])]++)] = static_cast<int32_t>(t);
+  return s;
 }
 
 // Continuous voxel-index coordinates of a physical point.

@@ -28,8 +28,15 @@ inline constexpr int32_t kCrowdedFace = -2;  // across a face of more than two t
 std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress);
 
 Vec3 tetCentroid(const TetMesh& m, size_t t);
-// Area of face f of tet t; its centroid in *centre.
-double tetFaceArea(const TetMesh& m, size_t t, int f, Vec3* centre);
+// Area of face f of tet t; its centroid in *centre unless centre is null.
+double tetFaceArea(const TetMesh& m, size_t t, int f, Vec3* centre = nullptr);
+
+// Vertex -> tets (CSR): the tets around vertex p are tets[offset[p] .. offset[p + 1]), ascending.
+struct VertexStars {
+  std::vector<int64_t> offset;
+  std::vector<int32_t> tets;
+};
+VertexStars vertexStars(const TetMesh& mesh);
 
 // Union-find whose root is always the smallest index of its set (deterministic numbering).
 struct DisjointSets {

@@ -184,22 +184,38 @@ TEST(LabelRepair, BadParametersAreRefused) {
 
 namespace tetflow {
 namespace {
-// The head phantom at 4 mm voxels: its CSF is one voxel thick, so a lattice of two voxels breaks it
-// into patches and lets brain touch skull. The repair removes the contact and joins the patches.
-TEST(LabelRepair, TheHeadPhantomsBrokenCsfIsJoinedAndSealed) {
+// The head phantom at 4 mm voxels (CSF one voxel thick), its materials at `sigma`, cleaved on an
+// 8 mm lattice with the air stripped.
+struct CoarseHead {
+  std::shared_ptr<const LabelVolume> vol;
+  LabelMaterials mats;
+  CleaveResult r;
+};
+CoarseHead cleaveCoarseHead(double sigma) {
   PhantomParams pp;
   pp.voxel_size = 4.0;
   pp.radius = 92;
   pp.skull_radius = 84;
   pp.csf_radius = 76;
   pp.brain_radius = 72;
-  const auto vol = std::make_shared<const LabelVolume>(makePhantom(pp).volume);
-  const LabelMaterials mats(vol, 1.0);
+  auto vol = std::make_shared<const LabelVolume>(makePhantom(pp).volume);
+  LabelMaterials mats(vol, sigma);
   NullProgress np;
   const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{8.0, 0.0}, np);
   CleaveParams cp;
   cp.strip_exterior = 0;
   CleaveResult r = cleave(bg, mats, cp, np);
+  return {vol, std::move(mats), std::move(r)};
+}
+
+// The head phantom at 4 mm voxels: its CSF is one voxel thick, so a lattice of two voxels breaks it
+// into patches and lets brain touch skull. The repair removes the contact and joins the patches.
+TEST(LabelRepair, TheHeadPhantomsBrokenCsfIsJoinedAndSealed) {
+  CoarseHead h = cleaveCoarseHead(1.0);
+  const auto& vol = h.vol;
+  const LabelMaterials& mats = h.mats;
+  CleaveResult& r = h.r;
+  NullProgress np;
   const CertificateResult before = certifyMesh(r.mesh, *vol, np);
   const LabelRepairStats st = repairLabels(r.mesh, mats, LabelRepairParams{}, np);
   const CertificateResult after = certifyMesh(r.mesh, *vol, np);
@@ -223,26 +239,14 @@ TEST(LabelRepair, TheHeadPhantomsBrokenCsfIsJoinedAndSealed) {
       EXPECT_EQ(lc.meshComponents, 1) << "label " << lc.label;
     }
 }
-} // namespace
-} // namespace tetflow
 
-namespace tetflow {
-namespace {
 // Point contacts: brain and skull tets that share only a vertex or an edge through a pinched CSF.
 TEST(LabelRepair, PointContactsAreSealedWhenAsked) {
-  PhantomParams pp;
-  pp.voxel_size = 4.0;
-  pp.radius = 92;
-  pp.skull_radius = 84;
-  pp.csf_radius = 76;
-  pp.brain_radius = 72;
-  const auto vol = std::make_shared<const LabelVolume>(makePhantom(pp).volume);
-  const LabelMaterials mats(vol, 0.5);
+  const CoarseHead h = cleaveCoarseHead(0.5);
+  const auto& vol = h.vol;
+  const LabelMaterials& mats = h.mats;
+  const CleaveResult& r = h.r;
   NullProgress np;
-  const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{8.0, 0.0}, np);
-  CleaveParams cp;
-  cp.strip_exterior = 0;
-  const CleaveResult r = cleave(bg, mats, cp, np);
   // Vertices whose tets carry brain (4) and skull (2), which never touch in the image.
   const auto pinched = [](const TetMesh& m) {
     std::vector<uint8_t> brain(m.numPoints(), 0), skull(m.numPoints(), 0);
