@@ -1,7 +1,6 @@
 // CleaveMesh: lattice cleaving (Algorithms/Cleaving/Cleaver.h) of a background mesh into a
 // conforming multimaterial mesh.
 #include <cmath>
-#include <map>
 #include <sstream>
 
 #include "Algorithms/Cleaving/Cleaver.h"
@@ -58,17 +57,12 @@ public:
     LabelRepairStats repair;
     if (repairOn) {
       repair = repairLabels(r.mesh, used, rp, ctx.progress());
-      // The per-material figures after the repair (stripped labels have no tets left).
-      std::map<int32_t, std::pair<int64_t, double>> now;
-      for (size_t t = 0; t < r.mesh.numTets(); ++t) {
-        auto& e = now[r.mesh.materials[t]];
-        ++e.first;
-        e.second += r.mesh.tetVolume(t);
-      }
-      for (auto& m : r.materials)
-        if (!m.stripped) {
-          m.tets = now[m.label].first;
-          m.meshVolume = now[m.label].second;
+      // The per-material figures after the repair (stripped labels keep theirs: no tets left).
+      const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats->labels());
+      for (size_t i = 0; i < r.materials.size(); ++i)
+        if (!r.materials[i].stripped) {
+          r.materials[i].tets = now[i].tets;
+          r.materials[i].meshVolume = now[i].volume;
         }
     }
     writeCleaveReport(r, ctx.report());

@@ -1315,13 +1315,10 @@ CleaveResult Cleaver::run() {
     r.materials[i].label = labels[i];
     r.materials[i].inputVolume = mats_.inputVolumes()[i];
   }
-  for (size_t t = 0; t < out.tets.size(); ++t) {
-    const size_t i = static_cast<size_t>(std::lower_bound(labels.begin(), labels.end(), out.materials[t]) - labels.begin());
-    const size_t idx = i < labels.size() && labels[i] == out.materials[t]
-                           ? i
-                           : static_cast<size_t>(std::find(labels.begin(), labels.end(), out.materials[t]) - labels.begin());
-    r.materials[idx].tets += 1;
-    r.materials[idx].meshVolume += out.tetVolume(t);
+  const std::vector<MaterialTally> tally = tallyMaterials(out, labels);
+  for (size_t i = 0; i < labels.size(); ++i) {
+    r.materials[i].tets = tally[i].tets;
+    r.materials[i].meshVolume = tally[i].volume;
   }
   if (p_.strip_exterior) {
     size_t w = 0;
@@ -1356,6 +1353,20 @@ CleaveResult Cleaver::run() {
 }
 
 } // namespace
+
+std::vector<MaterialTally> tallyMaterials(const TetMesh& mesh, const std::vector<int32_t>& labels) {
+  std::vector<MaterialTally> tally(labels.size());
+  const bool sorted = std::is_sorted(labels.begin(), labels.end());
+  for (size_t t = 0; t < mesh.numTets(); ++t) {
+    const int32_t L = mesh.materials[t];
+    const auto it = sorted ? std::lower_bound(labels.begin(), labels.end(), L) : std::find(labels.begin(), labels.end(), L);
+    if (it == labels.end() || *it != L) continue;
+    auto& e = tally[size_t(it - labels.begin())];
+    ++e.tets;
+    e.volume += mesh.tetVolume(t);
+  }
+  return tally;
+}
 
 CleaveResult cleave(const BackgroundMesh& background, const MaterialSet& materials,
                     const CleaveParams& params, Progress& progress) {

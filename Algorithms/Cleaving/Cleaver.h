@@ -91,6 +91,15 @@ struct CleaveResult {
   std::vector<MaterialOutcome> materials; // one per input material, in label order
 };
 
+// Tets and volume [mm^3] of each material of `mesh`, by position in `labels`; tets whose label is
+// not listed are not counted. (CleaveMesh refreshes its per-material figures with it after the
+// label repair; volume calibration measures its errors with it.)
+struct MaterialTally {
+  int64_t tets = 0;
+  double volume = 0.0;
+};
+std::vector<MaterialTally> tallyMaterials(const TetMesh& mesh, const std::vector<int32_t>& labels);
+
 // Throws InputError for bad parameters (naming them) or an empty background.
 CleaveResult cleave(const BackgroundMesh& background, const MaterialSet& materials,
                     const CleaveParams& params, Progress& progress);

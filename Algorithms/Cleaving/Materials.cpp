@@ -180,12 +180,7 @@ IndicatorMaterials::IndicatorMaterials(std::vector<ScalarVolume> volumes, std::v
   inputVolumes_.assign(volumes_.size(), 0.0);
   const size_t n = volumes_[0].data.size();
   std::vector<int64_t> counts(volumes_.size(), 0);
-  for (size_t i = 0; i < n; ++i) {
-    size_t best = 0;
-    for (size_t m = 1; m < volumes_.size(); ++m)
-      if (volumes_[m].data[i] > volumes_[best].data[i]) best = m;
-    ++counts[best];
-  }
+  for (size_t i = 0; i < n; ++i) ++counts[dominantAt(i)];
   for (size_t m = 0; m < counts.size(); ++m) inputVolumes_[m] = double(counts[m]) * grid_.voxelVolume();
 }
 
@@ -224,12 +219,7 @@ LabelVolume IndicatorMaterials::dominantLabels() const {
   v.data.resize(volumes_[0].data.size());
   const int64_t n = static_cast<int64_t>(v.data.size());
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    size_t best = 0;
-    for (size_t m = 1; m < volumes_.size(); ++m)
-      if (volumes_[m].data[size_t(i)] > volumes_[best].data[size_t(i)]) best = m;
-    v.data[size_t(i)] = labels_[best];
-  }
+  for (int64_t i = 0; i < n; ++i) v.data[size_t(i)] = labels_[dominantAt(size_t(i))];
   return v;
 }
 

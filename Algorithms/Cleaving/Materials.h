@@ -94,6 +94,14 @@ public:
   LabelVolume dominantLabels() const override;
 
 private:
+  // Dense index of the largest indicator at voxel i (ties to the lower index).
+  size_t dominantAt(size_t i) const {
+    size_t best = 0;
+    for (size_t m = 1; m < volumes_.size(); ++m)
+      if (volumes_[m].data[i] > volumes_[best].data[i]) best = m;
+    return best;
+  }
+
   std::vector<ScalarVolume> volumes_;
   Mat3 inverse_;
 };

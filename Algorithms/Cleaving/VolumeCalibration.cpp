@@ -38,15 +38,11 @@ size_t denseIndex(const std::vector<int32_t>& labels, int32_t label) {
 // Relative volume error per material (dense index).
 std::vector<double> volumeErrors(const TetMesh& mesh, const MaterialSet& mats) {
   const auto& labels = mats.labels();
-  std::vector<double> volume(labels.size(), 0.0);
-  for (size_t t = 0; t < mesh.numTets(); ++t) {
-    const size_t m = denseIndex(labels, mesh.materials[t]);
-    if (m < labels.size()) volume[m] += mesh.tetVolume(t);
-  }
+  const std::vector<MaterialTally> tally = tallyMaterials(mesh, labels);
   std::vector<double> err(labels.size(), 0.0);
   for (size_t m = 0; m < labels.size(); ++m) {
     const double input = mats.inputVolumes()[m];
-    err[m] = input > 0 ? (volume[m] - input) / input : 0.0;
+    err[m] = input > 0 ? (tally[m].volume - input) / input : 0.0;
   }
   return err;
 }

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <limits>
 #include <sstream>
 #include <system_error>
 #include <unistd.h>
@@ -19,7 +20,7 @@ namespace fs = std::filesystem;
 
 namespace tetflow {
 
-std::vector<char> readFileBytes(const std::string& path) {
+std::vector<char> readFilePrefix(const std::string& path, size_t maxBytes, int64_t* fileSize) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path + ": file not found");
   if (fs::is_directory(path, ec)) throw InputError(path + ": is a folder, not a file");
@@ -29,10 +30,16 @@ std::vector<char> readFileBytes(const std::string& path) {
   const std::streamoff size = in.tellg();
   if (size < 0) throw InputError(path + ": cannot determine the file size");
   in.seekg(0, std::ios::beg);
-  std::vector<char> bytes(static_cast<size_t>(size));
-  if (size > 0 && !in.read(bytes.data(), size))
+  if (fileSize) *fileSize = static_cast<int64_t>(size);
+  const size_t n = std::min(static_cast<size_t>(size), maxBytes);
+  std::vector<char> bytes(n);
+  if (n > 0 && !in.read(bytes.data(), static_cast<std::streamsize>(n)))
     throw InputError(path + ": read error (" + std::strerror(errno) + ")");
   return bytes;
+}
+
+std::vector<char> readFileBytes(const std::string& path) {
+  return readFilePrefix(path, std::numeric_limits<size_t>::max(), nullptr);
 }
 
 std::string fileExtension(const std::string& path) {

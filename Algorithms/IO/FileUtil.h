@@ -13,6 +13,8 @@
 namespace tetflow {
 
 std::vector<char> readFileBytes(const std::string& path);
+// The first min(file size, maxBytes) bytes of `path`, and the whole file's size in *fileSize.
+std::vector<char> readFilePrefix(const std::string& path, size_t maxBytes, int64_t* fileSize);
 
 // Lower-case extension including compound ".gz" ones: "a/b.NII.gz" -> ".nii.gz", "x.nrrd" -> ".nrrd".
 std::string fileExtension(const std::string& path);

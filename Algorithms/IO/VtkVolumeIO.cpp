@@ -189,12 +189,13 @@ void runVtkWriter(Writer* w, const std::string& path, const std::string& tempSuf
 // Reads the 348-byte NIfTI-1 header (gz or not) and checks that the file can hold the data it
 // announces, before VTK allocates anything.
 void precheckNifti(const std::string& path) {
-  const std::vector<char> file = readFileBytes(path);
+  // Only the start of the file: the header (inflated from at most 64 KiB when gzipped) and the size.
+  int64_t fileSize = 0;
+  const std::vector<char> file = readFilePrefix(path, 64 * 1024, &fileSize);
   std::vector<char> hdr;
   const bool gz = looksGzipped(file.data(), file.size());
   if (gz) {
-    // Inflate only as far as needed for the header.
-    hdr = gunzip(file.data(), std::min<size_t>(file.size(), 64 * 1024), -1, path);
+    hdr = gunzip(file.data(), file.size(), -1, path);
   } else {
     hdr.assign(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(file.size(), 352)));
   }
@@ -285,8 +286,7 @@ void precheckNifti(const std::string& path) {
     throw InputError(m.str());
   }
   const int64_t need = static_cast<int64_t>(voxOffset) + count * (bitpix / 8);
-  const int64_t have = gz ? maxInflatedSize(static_cast<int64_t>(file.size()))
-                          : static_cast<int64_t>(file.size());
+  const int64_t have = gz ? maxInflatedSize(fileSize) : fileSize;
   if (!gz && have > need) {
     std::ostringstream m;
     m << path << ": the header announces " << count << " voxels of " << bitpix / 8 << " bytes from byte "
