@@ -61,6 +61,7 @@
 
 #include "../Core/Errors.h"
 #include "FileUtil.h"
+#include "VtkXmlPrecheck.h"
 
 namespace fs = std::filesystem;
 
@@ -489,6 +490,7 @@ TetMesh readVtu(const std::string& path) {
   if (!r->CanReadFile(path.c_str()))
     throw InputError(path + ": not a VTK XML UnstructuredGrid (.vtu) file, or its header is "
                             "damaged");
+  precheckVtkXml(path); // block headers and counts against the file, before VTK allocates
   return runVtkReader(r.Get(), msgs, path, "the VTK XML unstructured grid");
 }
 

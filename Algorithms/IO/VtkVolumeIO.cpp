@@ -27,6 +27,7 @@
 
 #include "../Core/Errors.h"
 #include "FileUtil.h"
+#include "VtkXmlPrecheck.h"
 
 namespace fs = std::filesystem;
 
@@ -547,6 +548,7 @@ RawVolume readMetaImage(const std::string& path) {
 
 RawVolume readVti(const std::string& path) {
   requireReadableFile(path);
+  precheckVtkXml(path); // block headers and extents against the file, before VTK allocates
   vtkNew<vtkXMLImageDataReader> reader;
   runVtkReader(reader.Get(), path);
   vtkImageData* img = reader->GetOutput();
