@@ -5,6 +5,7 @@
 #   scripts/setup.sh            install + build
 #   scripts/setup.sh --run      ... then run the main job on the bundled default input
 #   scripts/setup.sh --test     ... then run the whole test suite (CTest)
+#   scripts/setup.sh --deps-only   install the missing packages and stop (scripts/fuzz.sh uses it)
 #
 # Environment: BUILD_DIR (default: build), TETFLOW_JOBS (default: nproc).
 set -euo pipefail
@@ -37,6 +38,8 @@ if [ ${#missing[@]} -gt 0 ]; then
 else
   echo "setup: all Debian packages present"
 fi
+
+if [ "${1:-}" = "--deps-only" ]; then exit 0; fi
 
 if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release

@@ -1,0 +1,72 @@
+// libFuzzer target for one file reader, chosen at compile time by TETFLOW_FUZZ_FORMAT (see
+// Testing/CMakeLists.txt): nrrd, nifti, metaimage, inr, vti (volumes, read and converted to labels
+// as ReadLabelVolume does) or vtu, vtk, tetgen (meshes, read as ReadMesh does). A reader may refuse
+// an input only with InputError; any other exception, crash, leak, hang or huge allocation is a
+// finding. For TetGen the input is split at its first NUL byte into the .node and .ele files.
+#include <cstdint>
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include <vtkObject.h>
+
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/IO/MeshIO.h"
+#include "Algorithms/IO/VolumeIO.h"
+#include "Fuzz/FuzzFile.h"
+
+#ifndef TETFLOW_FUZZ_FORMAT
+#error "define TETFLOW_FUZZ_FORMAT"
+#endif
+
+using namespace tetflow;
+
+namespace {
+
+void readVolumeFile(const std::string& path) {
+  const LabelVolume v = readLabelVolume(path);
+  (void)v;
+}
+
+void readMeshFile(const std::string& path) {
+  const TetMesh m = readMesh(path);
+  for (size_t t = 0; t < m.numTets(); ++t)
+    for (int k = 0; k < 4; ++k)
+      if (m.tets[t][k] < 0 || size_t(m.tets[t][k]) >= m.numPoints()) std::abort(); // index out of range
+}
+
+void fuzzOne(const uint8_t* data, size_t size) {
+  const std::string f = TETFLOW_FUZZ_FORMAT;
+  const bool gz = fuzz::gzipped(data, size);
+  if (f == "nrrd") return readVolumeFile(fuzz::writeInput("in.nrrd", data, size));
+  if (f == "nifti") return readVolumeFile(fuzz::writeInput(gz ? "in.nii.gz" : "in.nii", data, size));
+  if (f == "metaimage") return readVolumeFile(fuzz::writeInput("in.mha", data, size));
+  if (f == "inr") return readVolumeFile(fuzz::writeInput(gz ? "in.inr.gz" : "in.inr", data, size));
+  if (f == "vti") return readVolumeFile(fuzz::writeInput("in.vti", data, size));
+  if (f == "vtu") return readMeshFile(fuzz::writeInput("in.vtu", data, size));
+  if (f == "vtk") return readMeshFile(fuzz::writeInput("in.vtk", data, size));
+  if (f == "tetgen") {
+    const uint8_t* nul = static_cast<const uint8_t*>(std::memchr(data, 0, size));
+    const size_t split = nul ? size_t(nul - data) : size;
+    fuzz::writeInput("in.node", data, split);
+    fuzz::writeInput("in.ele", data + std::min(size, split + 1), size - std::min(size, split + 1));
+    return readMeshFile((fuzz::scratchDir() / "in.ele").string());
+  }
+  std::abort(); // unknown format: a build error
+}
+
+} // namespace
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  vtkObject::GlobalWarningDisplayOff(); // the readers collect VTK's messages themselves
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  try {
+    fuzzOne(data, size);
+  } catch (const InputError&) {
+    // refused with a message: the expected outcome for a damaged file
+  }
+  return 0;
+}

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Fuzzing (README "Reliability"): installs clang's libFuzzer and sanitizer runtimes when missing,
+# builds the fuzz targets of Testing/Fuzz with -fsanitize=fuzzer,address,undefined in build-fuzz,
+# and runs each for SECONDS (default 30) as the CTest tests labelled `fuzz`. Findings are written
+# to build-fuzz/fuzz-findings/NAME/ (crash-*, leak-*, timeout-*, oom-*); new coverage to
+# build-fuzz/fuzz-corpus/NAME/. The repository's seeds (Testing/Fuzz/corpus) are only read.
+#
+#   scripts/fuzz.sh            every target, 30 s each
+#   scripts/fuzz.sh 600        every target, 10 minutes each
+#   scripts/fuzz.sh 60 nrrd    one target (a CTest regex on Fuzz.NAME)
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$here"
+seconds=${1:-30}
+only=${2:-}
+BUILD_DIR=${FUZZ_BUILD_DIR:-build-fuzz}
+JOBS=${TETFLOW_JOBS:-$(nproc)}
+case "$seconds" in ''|*[!0-9]*) echo "fuzz: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
+
+# The normal build's packages first (scripts/setup.sh installs them), then clang's.
+"$here/scripts/setup.sh" --deps-only
+packages=(clang-14 libclang-rt-14-dev libomp-14-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "fuzz: installing missing Debian packages: ${missing[*]}"
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -qq
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETFLOW_FUZZ=ON
+fi
+cmake -S . -B "$BUILD_DIR" -DTETFLOW_FUZZ_SECONDS="$seconds" >/dev/null
+cmake --build "$BUILD_DIR" -j "$JOBS"
+cd "$BUILD_DIR"
+# One target at a time: each libFuzzer process uses one core, and the per-target time stays what
+# was asked for.
+exec ctest -L fuzz --output-on-failure ${only:+-R "Fuzz\\.($only)"}
