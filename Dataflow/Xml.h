@@ -1,10 +1,11 @@
 #pragma once
-// A small XML reader that keeps line numbers, for .srn networks. Boost.PropertyTree's XML parser
-// drops line numbers, and every .srn load error must name its line. Supports the XML that
-// network files use: declaration, DOCTYPE (skipped), comments, CDATA, elements, attributes in
-// single or double quotes, text, the five named entities and numeric character references.
-// Not supported (refused with a message): processing instructions other than the declaration,
-// custom entities.
+// The XML reader for .srn networks: pugixml (Debian's libpugixml-dev) parses, and this file adds
+// what a network load error needs and pugixml leaves out: the line of every element and attribute,
+// messages that name the tags involved, a refusal of unknown entities and bare '&' (pugixml keeps
+// them as literal text; it never expands DTD entities, so a billion-laughs file is refused at its
+// first entity reference), one root element, and a bound of 256 nesting levels (the tree below is
+// built without recursion, but XmlElement's destructor recurses). DOCTYPE, comments and processing
+// instructions are skipped; CDATA is text; attribute values keep their whitespace.
 #include <memory>
 #include <stdexcept>
 #include <string>

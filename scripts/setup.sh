@@ -18,7 +18,7 @@ packages=(
   build-essential cmake pkg-config
   qt6-base-dev libqt6opengl6-dev
   libvtk9-dev libeigen3-dev libboost-dev libboost-program-options-dev
-  libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev
+  libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev libpugixml-dev
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core
 )
 
