@@ -1,6 +1,6 @@
 // tetflow: the headless runner (no Qt). See README "Headless runner" and DESIGN §5.
 //
-//   tetflow run NET.srn [--set m3.param=value]... [--report out.json] [--threads N] [--quiet]
+//   tetflow run NET.srn [--set m3.param=value]... [--report out.json] [--threads N] [--max-memory SIZE] [--quiet]
 //   tetflow -E NET.srn ...          (SCIRun's spelling of `run`)
 //   tetflow validate NET.srn [--set ...]
 //   tetflow list-modules
@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Dataflow/Executor.h"
 #include "Dataflow/NetworkFile.h"
@@ -60,8 +61,11 @@ const char* kUsage =
     "  --report FILE.json     write every module's report, timings and errors as JSON\n"
     "  --output-dir DIR       write relative output files under DIR (created if missing)\n"
     "  --threads N            worker threads and threads per module (default: all cores)\n"
+    "  --max-memory SIZE      memory budget, e.g. 8G or 512M (default: the machine's available\n"
+    "                         memory); a module whose estimate exceeds it is refused before it\n"
+    "                         allocates, naming the parameter and a value that fits\n"
     "  --quiet                print only errors\n"
-    "options for certify (also --report, --threads, --quiet):\n"
+    "options for certify (also --report, --threads, --max-memory, --quiet):\n"
     "  --max-volume-error PCT fail when a label's |volume error| exceeds PCT percent\n"
     "  --require-components   fail on a lost, split, merged or spurious component\n"
     "  --forbid-spurious-contacts  fail when labels touch in the mesh but not in the image\n"
@@ -104,6 +108,13 @@ std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArg
         try { n = std::stoi(v, &used); } catch (...) {}
         if (used != v.size() || n < 1 || n > 1024) return "--threads '" + v + "' must be a whole number from 1 to 1024";
         r.threads = n;
+      } else if (allowRunOptions && s == "--max-memory") {
+        const std::string v = value(s);
+        try {
+          setMemoryLimit(parseMemorySize(v, "--max-memory"));
+        } catch (const InputError& e) {
+          return e.what();
+        }
       } else if (allowRunOptions && s == "--quiet") r.quiet = true;
       else if (!s.empty() && s[0] == '-') return "unknown option '" + s + "'";
       else if (r.net.empty()) r.net = s;
@@ -289,7 +300,14 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
         requireComponents = forbidContacts = true;
         if (maxErr == "0") maxErr = "3";
       } else if (s == "--quiet") r.quiet = true;
-      else if (s == "--threads") {
+      else if (s == "--max-memory") {
+        const std::string v = value();
+        try {
+          setMemoryLimit(parseMemorySize(v, "--max-memory"));
+        } catch (const InputError& e) {
+          return usageError(e.what());
+        }
+      } else if (s == "--threads") {
         const std::string v = value();
         size_t used = 0;
         int n = -1;

@@ -29,6 +29,9 @@ struct BccParams {
   double padding = 0.0;   // mm added around the volume's box on every side (>= 0)
 };
 
+// Peak bytes per background tet while a regular BCC lattice is built (README "Reliability").
+inline constexpr double kBccBytesPerTet = 40.0;
+
 struct BackgroundMesh {
   TetMesh mesh;
   // Per vertex for BCC lattices (empty for unstructured backgrounds): decides which of

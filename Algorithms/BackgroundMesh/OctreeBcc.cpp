@@ -8,6 +8,7 @@
 #include <unordered_set>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/MemoryBudget.h"
 
 namespace tetflow {
 
@@ -15,6 +16,13 @@ namespace {
 
 constexpr int kMaxLevels = 12; // levels below the roots
 constexpr int64_t kMaxTets = (int64_t(1) << 31) - 1;
+constexpr double kOctreeBytesPerLeaf = 16 * kBccBytesPerTet + 64;
+
+std::string formatNumber(double x) {
+  std::ostringstream o;
+  o << x;
+  return o.str();
+}
 
 // Leaf key: level (4 bits) and the cell index at that level (20 bits per axis).
 uint64_t leafKey(int level, int64_t i, int64_t j, int64_t k) {
@@ -269,7 +277,18 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
     // refuse before allocating a tree that could not be meshed.
     int64_t splits = 0;
     for (uint8_t f : split) splits += f;
-    if ((int64_t(leaves.size()) + int64_t(current.size()) + 7 * splits) * 24 > kMaxTets) {
+    const int64_t leavesNext = int64_t(leaves.size()) + int64_t(current.size()) + 7 * splits;
+    // Memory of the mesh these leaves will give: kOctreeBytesPerLeaf (16 tets of kBccBytesPerTet
+    // -- 12 per leaf plus bisections, 24 at most -- and the leaf's hash-set entry). Leaves near
+    // interfaces go as min_cell_size^-2.
+    requireMemory(kOctreeBytesPerLeaf * double(leavesNext),
+                  "the octree at level " + std::to_string(level + 1) + " (" + std::to_string(leavesNext) +
+                      " leaves, min_cell_size " + formatNumber(minCell) + " mm)",
+                  [&](double avail) {
+                    const double need = minCell * std::sqrt(kOctreeBytesPerLeaf * double(leavesNext) / std::max(avail, 1.0)) * 1.05;
+                    return "raise min_cell_size (or the sizing field's min_size) to >= " + formatNumber(roundUpForAdvice(need)) + " mm";
+                  });
+    if (leavesNext * 24 > kMaxTets) {
       std::ostringstream m;
       m << "the sizing field asks for more than " << kMaxTets / 24 << " octree leaves (" << kMaxTets
         << " tets) at level " << level + 1 << "; raise min_size / min_cell_size or lower the "
