@@ -4,7 +4,8 @@
 #
 #   scripts/setup.sh            install + build
 #   scripts/setup.sh --run      ... then run the main job on the bundled default input
-#   scripts/setup.sh --test     ... then run the whole test suite (CTest)
+#   scripts/setup.sh --test     ... then run the whole test suite (CTest); with CI set (as on CI)
+#                               or TETFLOW_SANITIZER_SUITE=1, then again under ASan + UBSan
 #   scripts/setup.sh --deps-only   install the missing packages and stop (scripts/fuzz.sh uses it)
 #
 # Environment: BUILD_DIR (default: build), TETFLOW_JOBS (default: nproc).
@@ -53,8 +54,20 @@ case "${1:-}" in
     ;;
   --test)
     shift
-    cd "$BUILD_DIR"
-    exec ctest --output-on-failure -j "$JOBS" "$@"
+    (cd "$BUILD_DIR" && ctest --output-on-failure -j "$JOBS" "$@")
+    # On CI (CI set) or when asked, the same suite again under ASan + UBSan (README "Reliability"):
+    # about 25 minutes more on 2 cores, most of it the build.
+    if [ -n "${CI:-}" ] || [ "${TETFLOW_SANITIZER_SUITE:-0}" = 1 ]; then
+      ASAN_DIR=${ASAN_BUILD_DIR:-build-asan}
+      if [ ! -f "$ASAN_DIR/CMakeCache.txt" ]; then
+        cmake -S . -B "$ASAN_DIR" -DTETFLOW_SANITIZE=address,undefined -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+          -DTETFLOW_BUILD_GUI=OFF -DTETFLOW_BUILD_BENCHMARKS=OFF
+      fi
+      echo "setup: the suite under AddressSanitizer + UndefinedBehaviorSanitizer ($ASAN_DIR)"
+      cmake --build "$ASAN_DIR" -j "$JOBS"
+      cd "$ASAN_DIR"
+      exec ctest --output-on-failure -j "$JOBS" "$@"
+    fi
     ;;
   "") ;;
   *) echo "setup: unknown option '$1' (use --run or --test)" >&2; exit 2 ;;

@@ -1,0 +1,193 @@
+// Lattice cleaving, set-up: box constraints, material samples, interface points and adjacency (see CleaverStages.h).
+#include "Algorithms/Cleaving/CleaverStages.h"
+
+namespace tetflow::cleaving_detail {
+
+void Cleaver::computeBoxConstraints() {
+  frame_ = mats_.grid().direction;
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  allStart_.assign(static_cast<size_t>(nv) + 1, 0);
+  for (const auto& q : m_.tets)
+    for (int32_t v : q) ++allStart_[v + 1];
+  for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
+  allList_.resize(static_cast<size_t>(allStart_[nv]));
+  {
+    std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
+    for (size_t t = 0; t < m_.tets.size(); ++t)
+      for (int32_t v : m_.tets[t]) allList_[fill[v]++] = static_cast<int32_t>(t);
+  }
+  fixedAxes_.assign(static_cast<size_t>(nv), 0);
+  std::vector<Vec3> local(static_cast<size_t>(nv));
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (int64_t v = 0; v < nv; ++v) {
+    const Vec3 d = m_.points[v] - mats_.grid().origin;
+    for (int a = 0; a < 3; ++a) {
+      local[v][a] = frame_[0][a] * d[0] + frame_[1][a] * d[1] + frame_[2][a] * d[2];
+      lo[a] = std::min(lo[a], local[v][a]);
+      hi[a] = std::max(hi[a], local[v][a]);
+    }
+  }
+  boxLo_ = lo;
+  boxHi_ = hi;
+  for (int64_t v = 0; v < nv; ++v)
+    for (int a = 0; a < 3; ++a) {
+      const double eps = 1e-9 * (hi[a] - lo[a]);
+      if (std::abs(local[v][a] - lo[a]) <= eps || std::abs(local[v][a] - hi[a]) <= eps)
+        fixedAxes_[v] |= static_cast<uint8_t>(1u << a);
+    }
+}
+
+void Cleaver::sample() {
+  progress_.beginStage("sample");
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  pos_ = m_.points;
+  label_.assign(static_cast<size_t>(nv), 0);
+  warped_.assign(static_cast<size_t>(nv), 0);
+  std::vector<int64_t> counts(static_cast<size_t>(nv) + 1, 0);
+  const int64_t block = 4096;
+  const int64_t nBlocks = (nv + block - 1) / block;
+  std::vector<std::vector<MaterialSample>> blockSamples(static_cast<size_t>(nBlocks));
+#pragma omp parallel
+  {
+    std::vector<MaterialSample> s;
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t bi = 0; bi < nBlocks; ++bi) {
+      // Cancellation: skip the remaining blocks; the exception is thrown after the parallel
+      // region (an exception leaving an OpenMP region would terminate the process).
+      if (progress_.cancelRequested()) continue;
+      auto& out = blockSamples[static_cast<size_t>(bi)];
+      for (int64_t v = bi * block; v < std::min(nv, (bi + 1) * block); ++v) {
+        mats_.sample(pos_[v], s);
+        label_[v] = dominantMaterial(s);
+        counts[v + 1] = static_cast<int64_t>(s.size());
+        out.insert(out.end(), s.begin(), s.end());
+      }
+      if (bi % 64 == 0) progress_.report(double(bi) / double(nBlocks));
+    }
+  }
+  progress_.checkCancel();
+  sampleStart_.assign(static_cast<size_t>(nv) + 1, 0);
+  for (int64_t v = 0; v < nv; ++v) sampleStart_[v + 1] = sampleStart_[v] + counts[v + 1];
+  samples_.clear();
+  samples_.reserve(static_cast<size_t>(sampleStart_[nv]));
+  for (auto& b : blockSamples) {
+    samples_.insert(samples_.end(), b.begin(), b.end());
+    std::vector<MaterialSample>().swap(b);
+  }
+}
+
+void Cleaver::buildInterfaces() {
+  progress_.beginStage("interfaces");
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  bgToInterface_.assign(static_cast<size_t>(nt), -1);
+  for (int64_t t = 0; t < nt; ++t) {
+    const auto& q = m_.tets[t];
+    const int32_t l0 = label_[q[0]];
+    if (label_[q[1]] != l0 || label_[q[2]] != l0 || label_[q[3]] != l0) {
+      bgToInterface_[t] = static_cast<int32_t>(itet_.size());
+      itet_.push_back(static_cast<int32_t>(t));
+    }
+  }
+  const int64_t ni = static_cast<int64_t>(itet_.size());
+  stats_.interfaceTets = ni;
+  // Unique edges and faces of interface tets.
+  std::vector<uint64_t> ekeys(static_cast<size_t>(ni) * 6);
+  std::vector<std::array<int32_t, 3>> fkeys(static_cast<size_t>(ni) * 4);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < ni; ++t) {
+    const auto& q = tv(static_cast<int32_t>(t));
+    for (int e = 0; e < 6; ++e) {
+      uint32_t a = static_cast<uint32_t>(q[kEdgeVerts[e][0]]), b = static_cast<uint32_t>(q[kEdgeVerts[e][1]]);
+      if (a > b) std::swap(a, b);
+      ekeys[t * 6 + e] = (uint64_t(a) << 32) | b;
+    }
+    for (int f = 0; f < 4; ++f) {
+      std::array<int32_t, 3> k = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
+      std::sort(k.begin(), k.end());
+      fkeys[t * 4 + f] = k;
+    }
+  }
+  std::vector<uint64_t> eu = ekeys;
+  __gnu_parallel::sort(eu.begin(), eu.end());
+  eu.erase(std::unique(eu.begin(), eu.end()), eu.end());
+  std::vector<std::array<int32_t, 3>> fu = fkeys;
+  __gnu_parallel::sort(fu.begin(), fu.end());
+  fu.erase(std::unique(fu.begin(), fu.end()), fu.end());
+  edgeV_.resize(eu.size());
+  for (size_t e = 0; e < eu.size(); ++e)
+    edgeV_[e] = {static_cast<int32_t>(eu[e] >> 32), static_cast<int32_t>(eu[e] & 0xffffffffu)};
+  faceV_ = fu;
+  tetEdge_.resize(static_cast<size_t>(ni));
+  tetFace_.resize(static_cast<size_t>(ni));
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < ni; ++t) {
+    for (int e = 0; e < 6; ++e)
+      tetEdge_[t][e] = static_cast<int32_t>(std::lower_bound(eu.begin(), eu.end(), ekeys[t * 6 + e]) - eu.begin());
+    for (int f = 0; f < 4; ++f)
+      tetFace_[t][f] = static_cast<int32_t>(std::lower_bound(fu.begin(), fu.end(), fkeys[t * 4 + f]) - fu.begin());
+  }
+  std::vector<uint64_t>().swap(ekeys);
+  std::vector<std::array<int32_t, 3>>().swap(fkeys);
+
+  // CSR adjacency: vertex -> tets, edge -> tets, face -> tets.
+  auto buildCsr = [&](size_t n, int per, auto key, std::vector<int64_t>& start, std::vector<int32_t>& list) {
+    start.assign(n + 1, 0);
+    for (int64_t t = 0; t < ni; ++t)
+      for (int k = 0; k < per; ++k) ++start[static_cast<size_t>(key(t, k)) + 1];
+    for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+    list.resize(static_cast<size_t>(start[n]));
+    std::vector<int64_t> fill(start.begin(), start.end() - 1);
+    for (int64_t t = 0; t < ni; ++t)
+      for (int k = 0; k < per; ++k) list[fill[key(t, k)]++] = static_cast<int32_t>(t);
+  };
+  buildCsr(m_.points.size(), 4, [&](int64_t t, int k) { return tv(static_cast<int32_t>(t))[k]; }, vtStart_, vtList_);
+  buildCsr(edgeV_.size(), 6, [&](int64_t t, int k) { return tetEdge_[t][k]; }, etStart_, etList_);
+  buildCsr(faceV_.size(), 4, [&](int64_t t, int k) { return tetFace_[t][k]; }, ftStart_, ftList_);
+
+  // Real interface points.
+  const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
+  cutT_.assign(static_cast<size_t>(ne), 0.5f);
+  cutAlias_.assign(static_cast<size_t>(ne), Ref{});
+  cutReal_.assign(static_cast<size_t>(ne), 0);
+  triB_.assign(static_cast<size_t>(nf), {1.0f / 3, 1.0f / 3, 1.0f / 3});
+  triAlias_.assign(static_cast<size_t>(nf), Ref{});
+  triReal_.assign(static_cast<size_t>(nf), 0);
+  triOverride_.assign(static_cast<size_t>(ni), {-1, -1, -1, -1});
+  quadB_.assign(static_cast<size_t>(ni), {0.25f, 0.25f, 0.25f, 0.25f});
+  quadAlias_.assign(static_cast<size_t>(ni), Ref{});
+  quadReal_.assign(static_cast<size_t>(ni), 0);
+  int64_t nc = 0, ntr = 0, nq = 0;
+#pragma omp parallel for schedule(static) reduction(+ : nc)
+  for (int64_t e = 0; e < ne; ++e)
+    if (label_[edgeV_[e][0]] != label_[edgeV_[e][1]]) {
+      cutReal_[e] = 1;
+      computeCut(static_cast<int32_t>(e));
+      ++nc;
+    }
+#pragma omp parallel for schedule(static) reduction(+ : ntr)
+  for (int64_t f = 0; f < nf; ++f) {
+    const auto& v = faceV_[f];
+    const int32_t a = label_[v[0]], b = label_[v[1]], c = label_[v[2]];
+    if (a != b && a != c && b != c) {
+      triReal_[f] = 1;
+      computeTriple(static_cast<int32_t>(f));
+      ++ntr;
+    }
+  }
+#pragma omp parallel for schedule(static) reduction(+ : nq)
+  for (int64_t t = 0; t < ni; ++t) {
+    const auto& q = tv(static_cast<int32_t>(t));
+    const int32_t l[4] = {label_[q[0]], label_[q[1]], label_[q[2]], label_[q[3]]};
+    if (l[0] != l[1] && l[0] != l[2] && l[0] != l[3] && l[1] != l[2] && l[1] != l[3] && l[2] != l[3]) {
+      quadReal_[t] = 1;
+      computeQuad(static_cast<int32_t>(t));
+      ++nq;
+    }
+  }
+  stats_.cuts = nc;
+  stats_.triples = ntr;
+  stats_.quadruples = nq;
+  progress_.checkCancel();
+}
+
+} // namespace tetflow::cleaving_detail

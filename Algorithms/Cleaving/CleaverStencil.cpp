@@ -1,0 +1,87 @@
+// Lattice cleaving, the stencil tets (see CleaverStages.h).
+#include "Algorithms/Cleaving/CleaverStages.h"
+
+namespace tetflow::cleaving_detail {
+
+CleaveResult Cleaver::stencil() {
+  progress_.beginStage("stencil");
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
+  const int64_t ni = static_cast<int64_t>(itet_.size());
+  // Output ids: lattice vertices, then free cuts, triples, quadruples.
+  std::vector<int32_t> cutId(static_cast<size_t>(ne), -1), triId(static_cast<size_t>(nf), -1),
+      quadId(static_cast<size_t>(ni), -1);
+  int64_t next = nv;
+  for (int64_t e = 0; e < ne; ++e)
+    if (cutAlias_[e].none()) cutId[e] = static_cast<int32_t>(next++);
+  for (int64_t f = 0; f < nf; ++f)
+    if (triAlias_[f].none()) triId[f] = static_cast<int32_t>(next++);
+  for (int64_t t = 0; t < ni; ++t)
+    if (quadAlias_[t].none()) quadId[t] = static_cast<int32_t>(next++);
+  if (next > (int64_t(1) << 31) - 1) throw ProcessingError("cleaving: too many output vertices");
+
+  CleaveResult r;
+  TetMesh& out = r.mesh;
+  out.points.resize(static_cast<size_t>(next));
+  for (int64_t v = 0; v < nv; ++v) out.points[v] = pos_[v];
+  for (int64_t e = 0; e < ne; ++e)
+    if (cutId[e] >= 0) out.points[cutId[e]] = positionOf({kCut, static_cast<int32_t>(e)});
+  for (int64_t f = 0; f < nf; ++f)
+    if (triId[f] >= 0) out.points[triId[f]] = positionOf({kTriple, static_cast<int32_t>(f)});
+  for (int64_t t = 0; t < ni; ++t)
+    if (quadId[t] >= 0) out.points[quadId[t]] = positionOf({kQuad, static_cast<int32_t>(t)});
+
+  auto idOf = [&](Ref x) -> int32_t {
+    x = resolve(x);
+    switch (x.kind) {
+      case kVertex: return x.index;
+      case kCut: return cutId[x.index];
+      case kTriple: return triId[x.index];
+      case kQuad: return quadId[x.index];
+    }
+    return -1;
+  };
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  std::vector<int64_t> counts(static_cast<size_t>(nt) + 1, 0);
+  // Pass 1: count output tets per background tet; pass 2: fill at the prefix offsets.
+  for (int pass = 0; pass < 2; ++pass) {
+#pragma omp parallel for schedule(dynamic, 1024)
+    for (int64_t b = 0; b < nt; ++b) {
+      const auto& q = m_.tets[b];
+      const int32_t it = bgToInterface_[b];
+      if (it < 0) {
+        if (pass == 0) counts[b + 1] = 1;
+        else {
+          out.tets[counts[b]] = q;
+          out.materials[counts[b]] = mats_.labels()[label_[q[0]]];
+        }
+        continue;
+      }
+      int64_t k = pass == 0 ? 0 : counts[b];
+      const int32_t qid = idOf({kQuad, it});
+      for (const Flag& fl : flags_) {
+        const int32_t a = q[fl.v];
+        const int32_t c = idOf({kCut, tetEdge_[it][fl.e]});
+        const int32_t ov = triOverride_[it][fl.f];
+        const int32_t tr = ov >= 0 ? ov : idOf({kTriple, tetFace_[it][fl.f]});
+        if (a == c || a == tr || a == qid || c == tr || c == qid || tr == qid) continue;
+        if (pass == 0) {
+          ++k;
+        } else {
+          out.tets[k] = fl.swapVE ? TetMesh::Tet{c, a, tr, qid} : TetMesh::Tet{a, c, tr, qid};
+          out.materials[k] = mats_.labels()[label_[a]];
+          ++k;
+        }
+      }
+      if (pass == 0) counts[b + 1] = k;
+    }
+    if (pass == 0) {
+      for (int64_t b = 0; b < nt; ++b) counts[b + 1] += counts[b];
+      out.tets.resize(static_cast<size_t>(counts[nt]));
+      out.materials.resize(static_cast<size_t>(counts[nt]));
+    }
+  }
+  return r;
+}
+
+} // namespace tetflow::cleaving_detail
