@@ -145,7 +145,13 @@ struct Steps {
 };
 
 void repairContacts(Steps& s) {
-  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  // Named references (clang 14 cannot capture structured bindings in lambdas).
+  auto& mesh = s.mesh;
+  auto& materials = s.materials;
+  auto& progress = s.progress;
+  auto& st = s.st;
+  auto& allowed = s.allowed;
+  auto& nb = s.nb;
   using Item = std::pair<double, int64_t>; // (margin, tet): smallest margin first, then index
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   for (int64_t t : forbiddenTets(mesh, nb, allowed)) {
@@ -177,7 +183,13 @@ void repairContacts(Steps& s) {
 }
 
 void repairPointContacts(Steps& s) {
-  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  // Named references (clang 14 cannot capture structured bindings in lambdas).
+  auto& mesh = s.mesh;
+  auto& materials = s.materials;
+  auto& progress = s.progress;
+  auto& st = s.st;
+  auto& allowed = s.allowed;
+  auto& nb = s.nb;
   progress.beginStage("repair point contacts");
   const size_t nP = mesh.numPoints();
   const VertexStars stars = vertexStars(mesh);
@@ -256,7 +268,16 @@ void repairPointContacts(Steps& s) {
 }
 
 void repairConnections(Steps& s) {
-  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  // Named references (clang 14 cannot capture structured bindings in lambdas).
+  auto& mesh = s.mesh;
+  auto& progress = s.progress;
+  auto& st = s.st;
+  auto& labels = s.labels;
+  auto& img = s.img;
+  auto& allowed = s.allowed;
+  auto& nb = s.nb;
+  auto& n = s.n;
+  auto& frame = s.frame;
   progress.beginStage("repair connections");
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
   for (int round = 0; round < 8; ++round) {
@@ -332,7 +353,13 @@ void repairConnections(Steps& s) {
 }
 
 void repairEdges(Steps& s) {
-  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  // Named references (clang 14 cannot capture structured bindings in lambdas).
+  auto& mesh = s.mesh;
+  auto& progress = s.progress;
+  auto& st = s.st;
+  auto& allowed = s.allowed;
+  auto& nb = s.nb;
+  auto& n = s.n;
   progress.beginStage("repair edges");
   // Rings of tets around every edge that lies in faces of two or more labels.
   struct EdgeTet {
@@ -451,7 +478,17 @@ void repairEdges(Steps& s) {
 }
 
 void repairFragments(Steps& s) {
-  auto& [mesh, materials, params, progress, st, labels, img, allowed, nb, n, frame] = s;
+  // Named references (clang 14 cannot capture structured bindings in lambdas).
+  auto& mesh = s.mesh;
+  auto& params = s.params;
+  auto& progress = s.progress;
+  auto& st = s.st;
+  auto& labels = s.labels;
+  auto& img = s.img;
+  auto& allowed = s.allowed;
+  auto& nb = s.nb;
+  auto& n = s.n;
+  auto& frame = s.frame;
   progress.beginStage("repair fragments");
   const double limit = params.fragment_voxels * labels.grid.voxelVolume();
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);

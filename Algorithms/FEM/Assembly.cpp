@@ -15,13 +15,6 @@
 
 namespace tetflow {
 
-namespace {
-
-// Index of the (a,b) entry, a <= b, of a symmetric 4x4 local matrix stored as 10 numbers.
-constexpr int kSym[4][4] = {{0, 1, 2, 3}, {1, 4, 5, 6}, {2, 5, 7, 8}, {3, 6, 8, 9}};
-
-} // namespace
-
 std::vector<int32_t> vertexDegrees(const TetMesh& mesh) {
   std::vector<int32_t> degree(mesh.numPoints(), 0);
   const int64_t nt = static_cast<int64_t>(mesh.numTets());

@@ -118,6 +118,14 @@ RawVolume rawFromImage(vtkImageData* img, const std::string& what) {
   RawVolume raw;
   int dims[3];
   img->GetDimensions(dims);
+  // An inverted or empty extent gives dimensions below 1 (found by fuzzing: a negative voxel count
+  // reached vector::resize).
+  if (dims[0] < 1 || dims[1] < 1 || dims[2] < 1) {
+    std::ostringstream m;
+    m << what << ": the image's extent is empty or inverted (dimensions " << dims[0] << " x " << dims[1] << " x "
+      << dims[2] << ")";
+    throw InputError(m.str());
+  }
   raw.grid.dims = {dims[0], dims[1], dims[2]};
   double sp[3];
   img->GetSpacing(sp);
@@ -429,8 +437,15 @@ void precheckMeta(const std::string& path, const MetaHeader& h) {
   if (h.dataFile == "LOCAL") {
     have = static_cast<int64_t>(fs::file_size(path, ec)) - h.headerBytes;
     dataPath = path;
+  } else if (std::any_of(h.dataFile.begin(), h.dataFile.end(),
+                         [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) {
+    throw InputError(path + ": ElementDataFile holds control characters; not a file name (damaged header?)");
   } else if (h.dataFile.rfind("LIST", 0) == 0 || h.dataFile.find('%') != std::string::npos) {
-    return; // multi-file layouts: leave the checks to VTK
+    // Multi-file layouts: VTK's MetaIO formats a '%' pattern with vsnprintf, so a damaged header
+    // becomes a format string (found by fuzzing: a crash inside vtkmetaio). Not supported.
+    throw InputError(path + ": ElementDataFile '" + h.dataFile.substr(0, 60) +
+                     "' is a multi-file layout (LIST or a numbered pattern), which is not supported; "
+                     "combine the slices into one .mha or .nrrd file");
   } else {
     fs::path p = fs::path(h.dataFile);
     if (p.is_relative()) p = fs::path(path).parent_path() / p;

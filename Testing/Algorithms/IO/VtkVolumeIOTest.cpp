@@ -375,3 +375,23 @@ TEST(VtkVolumeIO, UnwritableTargetLeavesNothing) {
   for (auto& e : std::filesystem::directory_iterator(tmp.path())) { (void)e; ++files; }
   EXPECT_EQ(files, 1u); // no temp files left
 }
+
+// Found by fuzzing (Testing/Fuzz/corpus/*/finding-*): a MetaImage whose ElementDataFile is a
+// numbered pattern reached vsnprintf inside VTK's MetaIO with a damaged header as the format (a
+// crash), and a VTI with an inverted extent gave a negative voxel count ("internal error").
+TEST(VtkVolumeIO, MultiFileMetaImageAndInvertedVtiExtentsAreRefused) {
+  TempDir dir;
+  const std::string head = "ObjectType = Image\nNDims = 3\nBinaryData = True\nDimSize = 2 2 2\nElementType = MET_UCHAR\n";
+  writeBytes(dir.file("p.mha"), head + "ElementDataFile = slice%03d.raw 1 2 1\n");
+  EXPECT_THROW_MSG(readVolume(dir.file("p.mha")), InputError, "p.mha", "multi-file layout", "one .mha");
+  writeBytes(dir.file("l.mha"), head + "ElementDataFile = LIST\na.raw\nb.raw\n");
+  EXPECT_THROW_MSG(readVolume(dir.file("l.mha")), InputError, "l.mha", "multi-file layout");
+  writeBytes(dir.file("c.mha"), head + "ElementDataFile = LOCAL\x01\x02\n" + std::string(8, '\1'));
+  EXPECT_THROW_MSG(readVolume(dir.file("c.mha")), InputError, "c.mha", "control characters");
+  writeBytes(dir.file("i.vti"), "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+                                "<ImageData WholeExtent=\"5 2 0 1 0 1\" Origin=\"0 0 0\" Spacing=\"1 1 1\">\n"
+                                "<Piece Extent=\"0 2 0 1 0 1\"><PointData Scalars=\"l\"><DataArray type=\"UInt8\" Name=\"l\" "
+                                "format=\"ascii\">0 1 2 2 1 0 3 3 3 0 0 1</DataArray></PointData></Piece>\n"
+                                "</ImageData>\n</VTKFile>\n");
+  EXPECT_THROW_MSG(readVolume(dir.file("i.vti")), InputError, "i.vti", "empty or inverted");
+}
