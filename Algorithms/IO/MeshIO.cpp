@@ -499,9 +499,9 @@ TetMesh readVtu(const std::string& path) {
 // vtkCellArray::AppendLegacyFormat run off its buffer (segfault), "CELL_TYPES n" smaller than the
 // cell count makes it read past the type buffer, and absurd counts make it allocate wildly.
 // So before VTK sees the file we find the POINTS / CELLS / CELL_TYPES lines (first upper-case
-// occurrence each; streamed, stopping once all are seen), compare the counts with each other and
-// with the file size, and walk a 4.x CELLS block with bounds checks. Anything not found or in
-// another layout is left to VTK.
+// occurrence each; streamed over the whole file, which must not hold a second section of any of
+// them), compare the counts with each other and with the file size, and walk a 4.x CELLS block
+// with bounds checks. Anything not found or in another layout is left to VTK.
 class LegacyPrecheck {
 public:
   explicit LegacyPrecheck(const std::string& path) : path_(path) {
@@ -560,6 +560,7 @@ private:
   struct Line {
     bool found = false;
     uint64_t dataStart = 0; // offset just past the line's '\n'
+    uint64_t keyAt = 0;     // offset of the '\n' before the keyword
     std::vector<std::string> tokens;
   };
 
@@ -571,17 +572,27 @@ private:
     std::string window;
     uint64_t windowStart = 0;
     auto look = [&](const char* key, Line& line) {
-      if (line.found) return;
-      const auto k = window.find(key);
-      if (k == std::string::npos) return;
-      const auto eol = window.find('\n', k + 1);
-      if (eol == std::string::npos) return; // line incomplete: next round
-      std::istringstream ls(window.substr(k + 1, eol - k - 1));
-      for (std::string t; ls >> t;) line.tokens.push_back(t);
-      line.dataStart = windowStart + eol + 1;
-      line.found = true;
+      if (!line.found) {
+        const auto k = window.find(key);
+        if (k == std::string::npos) return;
+        const auto eol = window.find('\n', k + 1);
+        if (eol == std::string::npos) return; // line incomplete: next round
+        std::istringstream ls(window.substr(k + 1, eol - k - 1));
+        for (std::string t; ls >> t;) line.tokens.push_back(t);
+        line.dataStart = windowStart + eol + 1;
+        line.keyAt = windowStart + k;
+        line.found = true;
+      }
+      // A second section of the same kind: VTK would read both, and a damaged second CELLS block
+      // ran vtkCellArray::AppendLegacyFormat off its buffer (found by fuzzing).
+      const uint64_t from = line.keyAt + 1 > windowStart ? line.keyAt + 1 - windowStart : 0;
+      if (from < window.size() && window.find(key, size_t(from)) != std::string::npos) {
+        std::string name(key + 1);
+        name.pop_back();
+        throw InputError(path_ + ": has more than one " + name + " section (damaged file?)");
+      }
     };
-    while (!(points_.found && cells_.found && types_.found)) {
+    while (true) { // the whole file: sections after the first of each kind are refused
       in.read(chunk.data(), static_cast<std::streamsize>(kChunk));
       const size_t got = static_cast<size_t>(in.gcount());
       if (got == 0) break;

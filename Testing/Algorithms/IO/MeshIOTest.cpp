@@ -443,6 +443,14 @@ TEST(MeshIOVtk, CorruptedLegacyCellBlock) {
   fewer.replace(types, 14, "\nCELL_TYPES 2\n");
   test::writeBytes(path, fewer);
   EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str(), "CELL_TYPES");
+  // A second CELLS section whose block is cut short made AppendLegacyFormat segfault (found by
+  // fuzzing; Testing/Fuzz/corpus/vtk/finding-crash-second-cells).
+  std::string twice = full;
+  const size_t typesAt = twice.find("\nCELL_TYPES ");
+  ASSERT_NE(typesAt, std::string::npos);
+  twice.insert(typesAt + 1, "CELLS 6 30\n\x04\x00\x00\n");
+  test::writeBytes(path, twice);
+  EXPECT_THROW_MSG(readMesh(path), InputError, path.c_str(), "more than one CELLS section");
   // Absurd point count.
   std::string huge = full;
   const size_t pts = huge.find("POINTS 8 double");
