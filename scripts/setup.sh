@@ -6,7 +6,7 @@
 #   scripts/setup.sh --run      ... then run the main job on the bundled default input
 #   scripts/setup.sh --test     ... then run the whole test suite (CTest); with CI set (as on CI)
 #                               or TETFLOW_SANITIZER_SUITE=1, then again under ASan + UBSan
-#   scripts/setup.sh --deps-only   install the missing packages and stop (scripts/fuzz.sh uses it)
+#   scripts/setup.sh --deps-only [PKG...]   install the missing packages (and PKG...) and stop
 #
 # Environment: BUILD_DIR (default: build), TETFLOW_JOBS (default: nproc).
 set -euo pipefail
@@ -22,6 +22,8 @@ packages=(
   libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev libpugixml-dev
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core
 )
+# --deps-only PKG...: these too (scripts/fuzz.sh passes clang's).
+if [ "${1:-}" = "--deps-only" ]; then packages+=("${@:2}"); fi
 
 missing=()
 for p in "${packages[@]}"; do
