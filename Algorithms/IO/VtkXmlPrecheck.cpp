@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -38,7 +39,26 @@ int base64Value(unsigned char c) {
 
 class Precheck {
 public:
-  explicit Precheck(const std::string& path) : path_(path), bytes_(readFileBytes(path)) {}
+  // Reads the file up to its appended data (the XML part; all of it when there is none), so the
+  // check takes memory for the markup, not for the data.
+  explicit Precheck(const std::string& path) : path_(path), in_(path, std::ios::binary) {
+    if (!in_) {
+      (void)readFileBytes(path); // the reader's message: not found, a folder, unreadable
+      throw InputError(path + ": cannot open for reading");
+    }
+    in_.seekg(0, std::ios::end);
+    fileSize_ = uint64_t(std::max<std::streamoff>(0, in_.tellg()));
+    in_.seekg(0);
+    std::vector<char> chunk(1 << 20);
+    const char* tag = "<AppendedData";
+    while (in_.read(chunk.data(), std::streamsize(chunk.size())) || in_.gcount() > 0) {
+      const size_t from = bytes_.size() > 16 ? bytes_.size() - 16 : 0;
+      bytes_.insert(bytes_.end(), chunk.begin(), chunk.begin() + in_.gcount());
+      const size_t at = find(tag, from);
+      if (at != std::string::npos && find("_", at) != std::string::npos) break;
+    }
+    in_.clear();
+  }
 
   void run() {
     const size_t appendedTag = find("<AppendedData", 0);
@@ -140,7 +160,7 @@ private:
 
   // What the file could hold once decompressed, in values of at least one byte.
   double capacity() const {
-    const double n = double(bytes_.size());
+    const double n = double(fileSize_);
     return compressed_ ? kVtkXmlMaxExpansion * n + 65536.0 : n;
   }
 
@@ -148,7 +168,7 @@ private:
     if (values > capacity()) {
       std::ostringstream m;
       m << "announces " << what << " " << static_cast<long double>(values) << " values but the file of "
-        << bytes_.size() << " bytes holds at most " << static_cast<long double>(capacity());
+        << fileSize_ << " bytes holds at most " << static_cast<long double>(capacity());
       fail(t, m.str());
     }
   }
@@ -170,9 +190,9 @@ private:
       if (format == "appended") {
         const auto off = count(t, "offset");
         if (!off || appendedStart_ == std::string::npos) return;
-        if (*off >= bytes_.size() - std::min(bytes_.size(), appendedStart_))
+        if (*off >= fileSize_ - std::min<uint64_t>(fileSize_, appendedStart_))
           fail(t, "has offset " + std::to_string(*off) + " past the end of the appended data");
-        checkArray(t, appendedStart_ + size_t(*off), appendedBase64_, bytes_.size());
+        checkArray(t, appendedStart_ + size_t(*off), appendedBase64_, size_t(fileSize_));
       } else if (format == "binary") {
         size_t start = t.end;
         while (start < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[start]))) ++start;
@@ -197,20 +217,36 @@ private:
     return n;
   }
 
+  // Bytes [start, min(stop, start + n)) of the file: from the markup read, or read from the file.
+  std::vector<char> slice(size_t start, size_t stop, size_t n) const {
+    if (start >= stop) return {};
+    const size_t end = std::min(stop, start + n);
+    if (end <= bytes_.size())
+      return std::vector<char>(bytes_.begin() + std::ptrdiff_t(start), bytes_.begin() + std::ptrdiff_t(end));
+    std::vector<char> out(end - start);
+    in_.clear();
+    in_.seekg(std::streamoff(start));
+    in_.read(out.data(), std::streamsize(out.size()));
+    out.resize(size_t(std::max<std::streamsize>(0, in_.gcount())));
+    return out;
+  }
+
   // Decodes `count` header words of the array data at `start` (raw bytes or base64 text ending at
   // `stop`); nullopt when the data end first.
   std::optional<std::vector<uint64_t>> words(size_t start, bool base64, size_t stop, size_t count) const {
     const size_t need = count * headerWord_;
     std::vector<unsigned char> raw;
     raw.reserve(need);
+    // Base64 needs 4 characters per 3 bytes (and a little room for line breaks).
+    const std::vector<char> text = slice(start, stop, base64 ? need / 3 * 4 + 1024 : need);
     if (!base64) {
-      if (start > stop || stop - start < need) return std::nullopt;
-      raw.assign(bytes_.begin() + std::ptrdiff_t(start), bytes_.begin() + std::ptrdiff_t(start + need));
+      if (text.size() < need) return std::nullopt;
+      raw.assign(text.begin(), text.begin() + std::ptrdiff_t(need));
     } else {
       uint32_t acc = 0;
       int bits = 0;
-      for (size_t i = start; i < stop && raw.size() < need; ++i) {
-        const unsigned char c = static_cast<unsigned char>(bytes_[i]);
+      for (size_t i = 0; i < text.size() && raw.size() < need; ++i) {
+        const unsigned char c = static_cast<unsigned char>(text[i]);
         if (c == '=') break;
         const int v = base64Value(c);
         if (v < 0) {
@@ -290,7 +326,9 @@ private:
   }
 
   std::string path_;
-  std::vector<char> bytes_;
+  mutable std::ifstream in_;
+  uint64_t fileSize_ = 0;
+  std::vector<char> bytes_; // the XML part (the whole file when nothing is appended)
   size_t headerWord_ = 4;
   bool bigEndian_ = false;
   bool compressed_ = false;
