@@ -28,7 +28,11 @@ void Cleaver::optimizeAngles(TetMesh& out) {
     if (tetMin(q) >= kTarget) continue;
     ++bad;
     for (int32_t v : q)
-      if (v < nv ? fixedAxes_[v] == 0 : !onBox(out.points[v])) candidate[v] = 1;
+      if (v < nv ? fixedAxes_[v] == 0 : !onBox(out.points[v])) {
+        // Tets sharing v may set it on two threads at once (a race ThreadSanitizer reported).
+#pragma omp atomic write
+        candidate[v] = 1;
+      }
   }
   if (bad == 0) return;
   // Incident tets of the candidates (one pass over the mesh).

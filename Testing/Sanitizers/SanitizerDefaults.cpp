@@ -25,3 +25,19 @@ extern "C" const char* __lsan_default_suppressions() {
          "leak:vtkUnstructuredGridReader::ReadMeshSimple\n"
          "leak:libvtkCommonDataModel\n";
 }
+
+// ThreadSanitizer (TETFLOW_SANITIZE=thread, built with clang and LLVM's OpenMP; run with
+// OMP_TOOL_LIBRARIES=libarcher.so so that OpenMP's barriers and reductions are seen). Races
+// reported inside Debian's libraries, not in TetFlow:
+//  - libstdc++'s parallel mode (__gnu_parallel::sort, used by the cleaver and the octree):
+//    parallel_sort_mwms has every thread write the shared __num_threads
+//    (parallel/multiway_mergesort.h:421), a benign race in the library;
+//  - libomp itself (its allocator's ___kmp_free / memset and lock initialisation), which is not
+//    instrumented.
+extern "C" const char* __tsan_default_suppressions() {
+  return "race:__gnu_parallel::parallel_sort_mwms\n"
+         "race:multiway_mergesort.h\n"
+         "called_from_lib:libomp.so.5\n"
+         "race:libomp.so.5\n"
+         "mutex:libomp.so.5\n";
+}
