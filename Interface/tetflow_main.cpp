@@ -88,6 +88,16 @@ struct RunArgs {
   bool quiet = false;
 };
 
+// --max-memory SIZE: sets the process's memory budget; returns an error message or "".
+std::string applyMaxMemory(const std::string& size) {
+  try {
+    setMemoryLimit(parseMemorySize(size, "--max-memory"));
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
 // Parses options after the command; returns an error message or "".
 std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArgs& r, bool allowRunOptions) {
   for (size_t i = start; i < a.size(); ++i) {
@@ -109,12 +119,7 @@ std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArg
         if (used != v.size() || n < 1 || n > 1024) return "--threads '" + v + "' must be a whole number from 1 to 1024";
         r.threads = n;
       } else if (allowRunOptions && s == "--max-memory") {
-        const std::string v = value(s);
-        try {
-          setMemoryLimit(parseMemorySize(v, "--max-memory"));
-        } catch (const InputError& e) {
-          return e.what();
-        }
+        if (auto err = applyMaxMemory(value(s)); !err.empty()) return err;
       } else if (allowRunOptions && s == "--quiet") r.quiet = true;
       else if (!s.empty() && s[0] == '-') return "unknown option '" + s + "'";
       else if (r.net.empty()) r.net = s;
@@ -301,12 +306,7 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
         if (maxErr == "0") maxErr = "3";
       } else if (s == "--quiet") r.quiet = true;
       else if (s == "--max-memory") {
-        const std::string v = value();
-        try {
-          setMemoryLimit(parseMemorySize(v, "--max-memory"));
-        } catch (const InputError& e) {
-          return usageError(e.what());
-        }
+        if (auto err = applyMaxMemory(value()); !err.empty()) return usageError(err);
       } else if (s == "--threads") {
         const std::string v = value();
         size_t used = 0;

@@ -13,7 +13,6 @@
 #include <vector>
 
 #include "Algorithms/Core/Errors.h"
-#include "Algorithms/IO/FileUtil.h"
 
 namespace tetflow {
 
@@ -42,10 +41,7 @@ public:
   // Reads the file up to its appended data (the XML part; all of it when there is none), so the
   // check takes memory for the markup, not for the data.
   explicit Precheck(const std::string& path) : path_(path), in_(path, std::ios::binary) {
-    if (!in_) {
-      (void)readFileBytes(path); // the reader's message: not found, a folder, unreadable
-      throw InputError(path + ": cannot open for reading");
-    }
+    if (!in_) throw InputError(path + ": cannot open for reading"); // the readers checked it exists
     in_.seekg(0, std::ios::end);
     fileSize_ = uint64_t(std::max<std::streamoff>(0, in_.tellg()));
     in_.seekg(0);
