@@ -29,6 +29,7 @@
 #include "Dataflow/NetworkFile.h"
 #include "Dataflow/RunReport.h"
 #include "Modules/StandardModules.h"
+#include "Interface/HugePages.h"
 
 using namespace tetflow;
 
@@ -458,6 +459,7 @@ int cmdDescribe(const std::string& name, const ModuleRegistry& reg) {
 } // namespace
 
 int main(int argc, char** argv) {
+  tetflow::useTransparentHugePages(argv); // first: it may exec the program again
   // A write past the file-size limit (ulimit -f) fails with EFBIG and a clear error, instead of
   // SIGXFSZ killing the process with a temp file left behind.
   std::signal(SIGXFSZ, SIG_IGN);

@@ -14,6 +14,7 @@
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/Phantom.h"
 #include "Algorithms/IO/VolumeIO.h"
+#include "Interface/HugePages.h"
 
 using namespace tetflow;
 
@@ -59,6 +60,7 @@ void printInfo(const std::string& path) {
 } // namespace
 
 int main(int argc, char** argv) {
+  tetflow::useTransparentHugePages(argv); // first: it may exec the program again
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty()) return usage();
   try {

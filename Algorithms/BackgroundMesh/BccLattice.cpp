@@ -110,6 +110,7 @@ BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, 
     }
   for (int64_t v = nPrimal + nDual; v < nVerts; ++v) bg.kind[v] = LatticeVertexKind::FaceCentre;
 
+  progress.checkCancel();
   // Tets: for every cell, its 6 faces; an interior face is emitted by the cell on its low side.
   m.tets.resize(static_cast<size_t>(nTets));
   auto emitFace = [&](int64_t cellIndex, int face, int32_t apex2, const int32_t q[4], int32_t apex1) {
@@ -123,7 +124,8 @@ BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, 
   // Slots: 12 per cell = 3 owned faces x 4. Boundary faces on the + side are appended after.
   std::vector<TetMesh::Tet> extra;
   extra.reserve(static_cast<size_t>(4 * (ny * nz + nx * nz + nx * ny)));
-  for (int64_t k = 0; k < nz; ++k)
+  for (int64_t k = 0; k < nz; ++k) {
+    progress.checkCancel(); // one slab of cells between checks
     for (int64_t j = 0; j < ny; ++j)
       for (int64_t i = 0; i < nx; ++i) {
         const int64_t c = i + nx * (j + ny * k);
@@ -154,8 +156,10 @@ BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, 
           for (int e = 0; e < 4; ++e) extra.push_back({d, faceCentre(5, i, j), q[e], q[(e + 1) % 4]});
         }
       }
+  }
   m.tets.resize(static_cast<size_t>(12 * nDual));
   m.tets.insert(m.tets.end(), extra.begin(), extra.end());
+  progress.checkCancel();
   // Orient positively (the grid's axes may flip handedness).
   const int64_t nt = static_cast<int64_t>(m.tets.size());
 #pragma omp parallel for schedule(static)

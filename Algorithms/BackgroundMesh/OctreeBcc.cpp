@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/MemoryBudget.h"
 
@@ -111,10 +112,11 @@ void SizingOctree::split(uint64_t key, std::vector<uint64_t>* touched) {
   }
 }
 
-int64_t SizingOctree::balance(std::vector<uint64_t> queue) {
-  int64_t splits = 0;
+int64_t SizingOctree::balance(std::vector<uint64_t> queue, const Progress* progress) {
+  int64_t splits = 0, popped = 0;
   const int L = finestLevel;
   while (!queue.empty()) {
+    if (progress && (++popped & 0xffff) == 0) progress->checkCancel();
     const uint64_t key = queue.back();
     queue.pop_back();
     if (!leafSet.count(key)) continue;
@@ -135,9 +137,10 @@ int64_t SizingOctree::balance(std::vector<uint64_t> queue) {
   return splits;
 }
 
-void SizingOctree::finish(OctreeBccStats& st) {
+void SizingOctree::finish(OctreeBccStats& st, Progress* progress) {
   leaves.assign(leafSet.begin(), leafSet.end());
-  std::sort(leaves.begin(), leaves.end());
+  if (progress) cancellableSort(leaves, *progress);
+  else std::sort(leaves.begin(), leaves.end());
   st.leavesPerLevel.assign(size_t(finestLevel + 1), 0);
   int deepest = 0;
   for (uint64_t key : leaves) {
@@ -310,9 +313,11 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   // 2. Balance: leaves touching by a face, edge or corner differ by at most one level.
   tree.leafSet = std::move(leaves);
   std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
-  std::sort(all.begin(), all.end());
-  st.balanceSplits += tree.balance(std::move(all));
-  tree.finish(st);
+  progress.checkCancel();
+  cancellableSort(all, progress);
+  st.balanceSplits += tree.balance(std::move(all), &progress);
+  progress.checkCancel();
+  tree.finish(st, &progress);
   progress.endStage();
   progress.checkCancel();
   return tree;
@@ -353,7 +358,9 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
     }
     return it->second;
   };
+  int64_t visited = 0;
   for (uint64_t key : sorted) {
+    if ((++visited & 0xffff) == 0) progress.checkCancel();
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - keyLevel(key));
     for (int q = 0; q < 8; ++q)
@@ -371,6 +378,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   // only reads the vertex map and can run in parallel).
   const int64_t finest[3] = {tree.roots[0] << L, tree.roots[1] << L, tree.roots[2] << L};
   for (uint64_t key : sorted) {
+    if ((++visited & 0xffff) == 0) progress.checkCancel();
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - keyLevel(key));
     for (int face = 0; face < 6; ++face) {
@@ -400,8 +408,10 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   const int64_t blockSize = 4096;
   const int64_t nBlocks = (nLeaves + blockSize - 1) / blockSize;
   std::vector<Block> blocks(static_cast<size_t>(nBlocks));
+  LoopCancel cancel(progress);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t bi = 0; bi < nBlocks; ++bi) {
+   if (cancel.skip()) continue;
    Block& out = blocks[size_t(bi)];
    for (int64_t li = bi * blockSize; li < std::min(nLeaves, (bi + 1) * blockSize); ++li) {
     const uint64_t key = sorted[size_t(li)];
@@ -469,10 +479,12 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   if (total > size_t(kMaxTets))
     throw InputError("the octree background mesh would have more than 2^31 - 1 tets; raise min_cell_size "
                      "(or the sizing field's min_size)");
+  cancel.rethrow();
   mesh.tets.reserve(total);
   tm.owner.reserve(total);
   tm.graded.reserve(total);
   for (Block& blk : blocks) {
+    progress.checkCancel();
     mesh.tets.insert(mesh.tets.end(), blk.tets.begin(), blk.tets.end());
     tm.owner.insert(tm.owner.end(), blk.owner.begin(), blk.owner.end());
     tm.graded.insert(tm.graded.end(), blk.graded.begin(), blk.graded.end());
@@ -590,8 +602,8 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
       std::vector<uint64_t> touched;
       for (uint64_t key : toSplit) tree.split(key, &touched);
       st.interfaceSplits += int64_t(toSplit.size());
-      st.balanceSplits += tree.balance(std::move(touched));
-      tree.finish(st);
+      st.balanceSplits += tree.balance(std::move(touched), &progress);
+      tree.finish(st, &progress);
       tm = meshFromTree(tree, grid, progress);
       progress.checkCancel();
     }

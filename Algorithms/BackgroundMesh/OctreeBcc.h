@@ -83,8 +83,8 @@ struct SizingOctree {
   // into its 8 children (appended to *touched when given); restore the 2:1 balance around the
   // leaves in `queue` and everything split meanwhile, returning the number of splits.
   void split(uint64_t key, std::vector<uint64_t>* touched);
-  int64_t balance(std::vector<uint64_t> queue);
-  void finish(OctreeBccStats& stats);
+  int64_t balance(std::vector<uint64_t> queue, const Progress* progress = nullptr);
+  void finish(OctreeBccStats& stats, Progress* progress = nullptr);
 };
 // Refines and balances as described above; fills stats except the tet counts.
 SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& params,

@@ -22,8 +22,10 @@ void Cleaver::optimizeAngles(TetMesh& out) {
   const int64_t np = static_cast<int64_t>(out.points.size());
   std::vector<uint8_t> candidate(static_cast<size_t>(np), 0);
   int64_t bad = 0;
+  LoopCancel scanCancel(progress_);
 #pragma omp parallel for schedule(static) reduction(+ : bad)
   for (int64_t t = 0; t < nt; ++t) {
+    if (scanCancel.skip(t)) continue;
     const auto& q = out.tets[t];
     if (tetMin(q) >= kTarget) continue;
     ++bad;
@@ -34,6 +36,7 @@ void Cleaver::optimizeAngles(TetMesh& out) {
         candidate[v] = 1;
       }
   }
+  scanCancel.rethrow();
   if (bad == 0) return;
   // Incident tets of the candidates (one pass over the mesh).
   std::vector<int32_t> slot(static_cast<size_t>(np), -1);
@@ -44,9 +47,11 @@ void Cleaver::optimizeAngles(TetMesh& out) {
       cand.push_back(static_cast<int32_t>(v));
     }
   std::vector<std::vector<int32_t>> around(cand.size());
-  for (int64_t t = 0; t < nt; ++t)
+  for (int64_t t = 0; t < nt; ++t) {
+    if ((t & 0xfffff) == 0) progress_.checkCancel();
     for (int32_t v : out.tets[t])
       if (slot[v] >= 0) around[slot[v]].push_back(static_cast<int32_t>(t));
+  }
   // Smallest dihedral angle around v, or -1 when a tet would not be positive or the tets
   // around v would no longer fill the same region (their volumes must keep their sum: the
   // region is fixed by the vertices around v, so a changed sum means overlap or a gap).
@@ -204,12 +209,18 @@ void Cleaver::optimizeAngles(TetMesh& out) {
         batch.push_back(i);
       }
       int64_t m = 0;
+      LoopCancel cancel(progress_);
 #pragma omp parallel reduction(+ : m)
       {
         std::vector<MaterialSample> smp;
 #pragma omp for schedule(dynamic, 16)
-        for (int64_t k = 0; k < static_cast<int64_t>(batch.size()); ++k) m += optimizeOne(batch[k], smp) ? 1 : 0;
+        for (int64_t k = 0; k < static_cast<int64_t>(batch.size()); ++k) {
+          // Polled before every vertex: each is a local search of a few hundred tets.
+          if (cancel.skip()) continue;
+          m += optimizeOne(batch[k], smp) ? 1 : 0;
+        }
       }
+      cancel.rethrow();
       moved += m;
       pending.swap(rest);
       progress_.checkCancel();

@@ -140,7 +140,9 @@ void Cleaver::closure() {
   tetQueued_.assign(itet_.size(), 0);
   for (int32_t f = 0; f < static_cast<int32_t>(faceV_.size()); ++f) pushFace(f);
   for (int32_t t = 0; t < static_cast<int32_t>(itet_.size()); ++t) pushTet(t);
+  int64_t popped = 0;
   while (!work_.empty()) {
+    if ((++popped & 0xffff) == 0) progress_.checkCancel();
     const auto [kind, idx] = work_.front();
     work_.pop_front();
     if (kind == kTriple) {

@@ -88,13 +88,16 @@ void Cleaver::buildInterfaces() {
       itet_.push_back(static_cast<int32_t>(t));
     }
   }
+  progress_.checkCancel();
   const int64_t ni = static_cast<int64_t>(itet_.size());
   stats_.interfaceTets = ni;
   // Unique edges and faces of interface tets.
   std::vector<uint64_t> ekeys(static_cast<size_t>(ni) * 6);
   std::vector<std::array<int32_t, 3>> fkeys(static_cast<size_t>(ni) * 4);
+  LoopCancel keyCancel(progress_);
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < ni; ++t) {
+    if (keyCancel.skip(t)) continue;
     const auto& q = tv(static_cast<int32_t>(t));
     for (int e = 0; e < 6; ++e) {
       uint32_t a = static_cast<uint32_t>(q[kEdgeVerts[e][0]]), b = static_cast<uint32_t>(q[kEdgeVerts[e][1]]);
@@ -107,43 +110,55 @@ void Cleaver::buildInterfaces() {
       fkeys[t * 4 + f] = k;
     }
   }
+  keyCancel.rethrow();
   std::vector<uint64_t> eu = ekeys;
-  __gnu_parallel::sort(eu.begin(), eu.end());
+  cancellableSort(eu, progress_);
   eu.erase(std::unique(eu.begin(), eu.end()), eu.end());
+  progress_.checkCancel();
   std::vector<std::array<int32_t, 3>> fu = fkeys;
-  __gnu_parallel::sort(fu.begin(), fu.end());
+  cancellableSort(fu, progress_);
   fu.erase(std::unique(fu.begin(), fu.end()), fu.end());
+  progress_.checkCancel();
   edgeV_.resize(eu.size());
   for (size_t e = 0; e < eu.size(); ++e)
     edgeV_[e] = {static_cast<int32_t>(eu[e] >> 32), static_cast<int32_t>(eu[e] & 0xffffffffu)};
   faceV_ = fu;
   tetEdge_.resize(static_cast<size_t>(ni));
   tetFace_.resize(static_cast<size_t>(ni));
+  LoopCancel lookupCancel(progress_);
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < ni; ++t) {
+    if (lookupCancel.skip(t)) continue;
     for (int e = 0; e < 6; ++e)
       tetEdge_[t][e] = static_cast<int32_t>(std::lower_bound(eu.begin(), eu.end(), ekeys[t * 6 + e]) - eu.begin());
     for (int f = 0; f < 4; ++f)
       tetFace_[t][f] = static_cast<int32_t>(std::lower_bound(fu.begin(), fu.end(), fkeys[t * 4 + f]) - fu.begin());
   }
+  lookupCancel.rethrow();
   std::vector<uint64_t>().swap(ekeys);
   std::vector<std::array<int32_t, 3>>().swap(fkeys);
 
   // CSR adjacency: vertex -> tets, edge -> tets, face -> tets.
   auto buildCsr = [&](size_t n, int per, auto key, std::vector<int64_t>& start, std::vector<int32_t>& list) {
     start.assign(n + 1, 0);
-    for (int64_t t = 0; t < ni; ++t)
+    for (int64_t t = 0; t < ni; ++t) {
+      if ((t & 0xfffff) == 0) progress_.checkCancel();
       for (int k = 0; k < per; ++k) ++start[static_cast<size_t>(key(t, k)) + 1];
+    }
     for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+    progress_.checkCancel();
     list.resize(static_cast<size_t>(start[n]));
     std::vector<int64_t> fill(start.begin(), start.end() - 1);
-    for (int64_t t = 0; t < ni; ++t)
+    for (int64_t t = 0; t < ni; ++t) {
+      if ((t & 0xfffff) == 0) progress_.checkCancel();
       for (int k = 0; k < per; ++k) list[fill[key(t, k)]++] = static_cast<int32_t>(t);
+    }
   };
   buildCsr(m_.points.size(), 4, [&](int64_t t, int k) { return tv(static_cast<int32_t>(t))[k]; }, vtStart_, vtList_);
   buildCsr(edgeV_.size(), 6, [&](int64_t t, int k) { return tetEdge_[t][k]; }, etStart_, etList_);
   buildCsr(faceV_.size(), 4, [&](int64_t t, int k) { return tetFace_[t][k]; }, ftStart_, ftList_);
 
+  progress_.checkCancel();
   // Real interface points.
   const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
   cutT_.assign(static_cast<size_t>(ne), 0.5f);
@@ -164,6 +179,7 @@ void Cleaver::buildInterfaces() {
       computeCut(static_cast<int32_t>(e));
       ++nc;
     }
+  progress_.checkCancel();
 #pragma omp parallel for schedule(static) reduction(+ : ntr)
   for (int64_t f = 0; f < nf; ++f) {
     const auto& v = faceV_[f];
@@ -174,6 +190,7 @@ void Cleaver::buildInterfaces() {
       ++ntr;
     }
   }
+  progress_.checkCancel();
 #pragma omp parallel for schedule(static) reduction(+ : nq)
   for (int64_t t = 0; t < ni; ++t) {
     const auto& q = tv(static_cast<int32_t>(t));

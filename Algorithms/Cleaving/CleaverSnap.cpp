@@ -134,7 +134,9 @@ void Cleaver::generalize() {
   // vertices, or any interior cut), choose the one that puts no unwarped lattice vertex into a
   // triangle of another material (such a vertex is not on the interface: §4.10.1), then the
   // lowest dimension, then the most collocated cuts, then the lowest id.
+  progress_.checkCancel();
   for (int32_t f = 0; f < nf; ++f) {
+    if ((f & 0xffff) == 0) progress_.checkCancel();
     if (triReal_[f]) continue;
     const auto& v = faceV_[f];
     int32_t edges[3][2];

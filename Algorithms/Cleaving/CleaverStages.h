@@ -15,7 +15,7 @@
 
 #include <Eigen/Dense>
 #include <omp.h>
-#include <parallel/algorithm>
+#include "Algorithms/Core/CancellableSort.h"
 #include <algorithm>
 #include <cmath>
 #include <deque>

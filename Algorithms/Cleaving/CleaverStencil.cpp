@@ -12,6 +12,7 @@ CleaveResult Cleaver::stencil() {
   std::vector<int32_t> cutId(static_cast<size_t>(ne), -1), triId(static_cast<size_t>(nf), -1),
       quadId(static_cast<size_t>(ni), -1);
   int64_t next = nv;
+  progress_.checkCancel();
   for (int64_t e = 0; e < ne; ++e)
     if (cutAlias_[e].none()) cutId[e] = static_cast<int32_t>(next++);
   for (int64_t f = 0; f < nf; ++f)
@@ -20,10 +21,12 @@ CleaveResult Cleaver::stencil() {
     if (quadAlias_[t].none()) quadId[t] = static_cast<int32_t>(next++);
   if (next > (int64_t(1) << 31) - 1) throw ProcessingError("cleaving: too many output vertices");
 
+  progress_.checkCancel();
   CleaveResult r;
   TetMesh& out = r.mesh;
   out.points.resize(static_cast<size_t>(next));
   for (int64_t v = 0; v < nv; ++v) out.points[v] = pos_[v];
+  progress_.checkCancel();
   for (int64_t e = 0; e < ne; ++e)
     if (cutId[e] >= 0) out.points[cutId[e]] = positionOf({kCut, static_cast<int32_t>(e)});
   for (int64_t f = 0; f < nf; ++f)
@@ -41,12 +44,16 @@ CleaveResult Cleaver::stencil() {
     }
     return -1;
   };
+  progress_.checkCancel();
   const int64_t nt = static_cast<int64_t>(m_.tets.size());
   std::vector<int64_t> counts(static_cast<size_t>(nt) + 1, 0);
   // Pass 1: count output tets per background tet; pass 2: fill at the prefix offsets.
   for (int pass = 0; pass < 2; ++pass) {
+    progress_.checkCancel();
+    LoopCancel cancel(progress_);
 #pragma omp parallel for schedule(dynamic, 1024)
     for (int64_t b = 0; b < nt; ++b) {
+      if (cancel.skip(b)) continue;
       const auto& q = m_.tets[b];
       const int32_t it = bgToInterface_[b];
       if (it < 0) {
@@ -75,8 +82,10 @@ CleaveResult Cleaver::stencil() {
       }
       if (pass == 0) counts[b + 1] = k;
     }
+    cancel.rethrow();
     if (pass == 0) {
       for (int64_t b = 0; b < nt; ++b) counts[b + 1] += counts[b];
+      progress_.checkCancel();
       out.tets.resize(static_cast<size_t>(counts[nt]));
       out.materials.resize(static_cast<size_t>(counts[nt]));
     }

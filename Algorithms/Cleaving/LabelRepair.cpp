@@ -1,5 +1,7 @@
 #include "LabelRepair.h"
 
+#include "Algorithms/Core/CancellableSort.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -9,6 +11,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/LabelTopology.h"
 
@@ -283,12 +286,15 @@ void repairConnections(Steps& s) {
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
     DisjointSets sets = sameLabelPieces(mesh, nb);
+    progress.checkCancel();
     // The primary piece of every image component, then the other pieces that vote for one, with
     // their tets and the components they vote for.
     const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+    progress.checkCancel();
     std::map<int32_t, std::vector<int64_t>> tetsOf;
     std::map<int32_t, std::set<int32_t>> compsOf;
     for (int64_t t = 0; t < n; ++t) {
+      if ((t & 0xfffff) == 0) progress.checkCancel();
       const int32_t r = sets.find(int32_t(t));
       if (primary[size_t(r)] || vote[size_t(t)] < 0) continue;
       compsOf[r].insert(vote[size_t(t)]);
@@ -375,6 +381,7 @@ void repairEdges(Steps& s) {
   };
   std::vector<EdgeTet> ring;
   for (int64_t t = 0; t < n; ++t) {
+    if ((t & 0xfffff) == 0) progress.checkCancel();
     bool mixed = false;
     for (int f = 0; f < 4 && !mixed; ++f) {
       const int32_t o = nb[size_t(4 * t + f)];
@@ -383,13 +390,18 @@ void repairEdges(Steps& s) {
     if (!mixed) continue;
     for (const auto& e : kEdgeEnds) ring.push_back({edgeKey(int32_t(t), e), int32_t(t)});
   }
-  std::sort(ring.begin(), ring.end());
+  cancellableSort(ring, progress);
   std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
   for (int round = 0; round < 4; ++round) {
     progress.checkCancel();
     int64_t closed = 0;
     std::unordered_set<uint64_t> touched;
+    size_t nextCheck = size_t(1) << 12;
     for (size_t i = 0; i < ring.size();) {
+      if (i >= nextCheck) {
+        progress.checkCancel();
+        nextCheck = i + (size_t(1) << 12);
+      }
       size_t j = i;
       while (j < ring.size() && ring[j].edge == ring[i].edge) ++j;
       if (round > 0 && !dirty.count(ring[i].edge)) {
@@ -495,14 +507,20 @@ void repairFragments(Steps& s) {
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
     DisjointSets sets = sameLabelPieces(mesh, nb);
+    progress.checkCancel();
     // Pieces (by root), their volume, and the primary piece of every image component.
     std::vector<double> volume(mesh.numTets(), 0.0);
-    for (int64_t t = 0; t < n; ++t) volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
+    for (int64_t t = 0; t < n; ++t) {
+      if ((t & 0xfffff) == 0) progress.checkCancel();
+      volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
+    }
     const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+    progress.checkCancel();
     // Candidates: small, not primary. Their outer faces by neighbour label.
     std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
     std::vector<int64_t> candidateTets;
     for (int64_t t = 0; t < n; ++t) {
+      if ((t & 0xfffff) == 0) progress.checkCancel();
       const int32_t r = sets.find(int32_t(t));
       if (primary[size_t(r)] || volume[size_t(r)] >= limit) continue;
       candidateTets.push_back(t);

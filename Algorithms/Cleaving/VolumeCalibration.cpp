@@ -1,6 +1,7 @@
 #include "VolumeCalibration.h"
 
 #include <algorithm>
+#include <memory>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -56,14 +57,23 @@ void interfaceAreaAndSlope(const TetMesh& mesh, const MaterialSet& mats, Progres
   const auto& sp = mats.grid().spacing;
   const double h = 0.25 * std::min({sp[0], sp[1], sp[2]});
   const int64_t n = static_cast<int64_t>(mesh.numTets());
-  std::vector<double> faceArea(size_t(4 * n), 0.0), faceSlope(size_t(4 * n), 0.0);
-  std::vector<int32_t> pairA(size_t(4 * n), -1), pairB(size_t(4 * n), -1);
+  // Per tet face; written by the loop below (pairA = -1 where the face is not an interface), so
+  // not zeroed first: the loop's threads touch the pages, not one thread up front.
+  const size_t nf = size_t(4 * n);
+  const auto faceArea = std::make_unique_for_overwrite<double[]>(nf);
+  const auto faceSlope = std::make_unique_for_overwrite<double[]>(nf);
+  const auto pairA = std::make_unique_for_overwrite<int32_t[]>(nf);
+  const auto pairB = std::make_unique_for_overwrite<int32_t[]>(nf);
+  progress.checkCancel();
+  LoopCancel cancel(progress);
 #pragma omp parallel
   {
     std::vector<MaterialSample> lo, hi;
 #pragma omp for schedule(dynamic, 4096)
-    for (int64_t t = 0; t < n; ++t)
+    for (int64_t t = 0; t < n; ++t) {
+      if (cancel.skip(t)) continue;
       for (int f = 0; f < 4; ++f) {
+        pairA[size_t(4 * t + f)] = -1;
         const int32_t o = nb[size_t(4 * t + f)];
         if (o <= t || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
         const int32_t a = int32_t(denseIndex(labels, mesh.materials[size_t(t)]));
@@ -95,10 +105,12 @@ void interfaceAreaAndSlope(const TetMesh& mesh, const MaterialSet& mats, Progres
         pairA[i] = a;
         pairB[i] = b;
       }
+    }
   }
+  cancel.rethrow();
   area.assign(labels.size(), 0.0);
   std::vector<std::vector<double>> slopes(labels.size());
-  for (size_t i = 0; i < faceArea.size(); ++i)
+  for (size_t i = 0; i < nf; ++i)
     if (pairA[i] >= 0)
       for (int32_t m : {pairA[i], pairB[i]}) {
         area[size_t(m)] += faceArea[i];

@@ -6,6 +6,8 @@
 // checkCancel() concurrently.
 #include <atomic>
 #include <chrono>
+#include <cstdint>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -23,10 +25,23 @@ public:
   // Fraction done within the current stage, 0..1.
   void report(double fraction) { onReport(fraction); }
   void requestCancel() { cancel_.store(true); }
-  bool cancelRequested() const { return cancel_.load(); }
-  void checkCancel() const {
+  // (The default arguments name the caller's source line, for the diagnostic below; the
+  // builtins work in g++ and clang 14, which lacks std::source_location.)
+  bool cancelRequested(const char* file = __builtin_FILE(), unsigned line = __builtin_LINE()) const {
+    noteCheck(file, line);
+    return cancel_.load();
+  }
+  void checkCancel(const char* file = __builtin_FILE(), unsigned line = __builtin_LINE()) const {
+    noteCheck(file, line);
     if (cancel_.load(std::memory_order_relaxed)) throw Cancelled();
   }
+
+  // Diagnostic for the cancellation promise (README "Reliability"): with the environment variable
+  // TETFLOW_CANCEL_GAPS set, every stage prints to stderr the longest wall-clock stretch in which
+  // no thread checked for cancellation (from the stage's start to its end), and the two checks
+  // (source lines) around it. That stretch bounds how long a Ctrl-C waits in the stage. Off by
+  // default; costs one relaxed load per check.
+  static bool gapTracing() { return gapTracing_.load(std::memory_order_relaxed); }
 
   struct StageTime {
     std::string name;
@@ -40,11 +55,55 @@ protected:
   virtual void onReport(double /*fraction*/) {}
 
 private:
+  void noteCheck(const char* file, unsigned line) const {
+    if (gapTracing_.load(std::memory_order_relaxed)) recordCheck(file, line);
+  }
+  void recordCheck(const char* file, unsigned line) const;
+  void reportGap() const;
+
+  static std::atomic<bool> gapTracing_;
+  struct Where {
+    const char* file = nullptr;
+    uint32_t line = 0;
+  };
+  // Diagnostic state, used only while tracing (so a mutex is fine).
+  mutable std::mutex traceMutex_;
+  mutable int64_t lastCheckNs_ = 0; // steady clock, ns
+  mutable int64_t maxGapNs_ = 0;
+  mutable Where lastWhere_, gapFrom_, gapTo_;
   std::atomic<bool> cancel_{false};
   std::vector<StageTime> stages_;
   std::string current_;
   bool inStage_ = false;
   std::chrono::steady_clock::time_point start_;
+};
+
+// Cancellation inside an OpenMP loop, whose body must not throw: `if (c.skip(i)) continue;` at the
+// top of the body polls the progress every 16 k iterations (`c.skip()`: every iteration) and, once
+// cancellation is seen, skips the rest; `c.rethrow()` after the loop throws Cancelled.
+class LoopCancel {
+public:
+  explicit LoopCancel(const Progress& p, const char* file = __builtin_FILE(),
+                      unsigned line = __builtin_LINE())
+      : p_(p), file_(file), line_(line) {}
+  bool skip(int64_t i) {
+    if ((i & 0x3fff) == 0 && p_.cancelRequested(file_, line_)) stop_.store(true, std::memory_order_relaxed);
+    return stop_.load(std::memory_order_relaxed);
+  }
+  // Polls every time: for loops whose iterations are large (blocks, local searches).
+  bool skip() {
+    if (p_.cancelRequested(file_, line_)) stop_.store(true, std::memory_order_relaxed);
+    return stop_.load(std::memory_order_relaxed);
+  }
+  void rethrow() const {
+    if (stop_.load()) throw Cancelled();
+  }
+
+private:
+  const Progress& p_;
+  const char* file_; // where the loop is (for the TETFLOW_CANCEL_GAPS diagnostic)
+  unsigned line_;
+  std::atomic<bool> stop_{false};
 };
 
 // A sink that only records stage times and honours cancellation.

@@ -46,6 +46,8 @@
 #include <vtkErrorCode.h>
 #include <vtkExecutive.h>
 #include <vtkIdTypeArray.h>
+#include <vtkTypeInt32Array.h>
+#include <vtkTypeInt64Array.h>
 #include <vtkIntArray.h>
 #include <vtkLogger.h>
 #include <vtkNew.h>
@@ -60,7 +62,9 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "../Core/Errors.h"
+#include "../Core/Progress.h"
 #include "FileUtil.h"
+#include "VtkCancellableWriters.h"
 #include "VtkXmlPrecheck.h"
 
 namespace fs = std::filesystem;
@@ -119,7 +123,10 @@ public:
 
 private:
   void maybeFlush() {
-    if (buf_.size() > (1u << 20)) flush();
+    if (buf_.size() <= (1u << 20)) return;
+    flush();
+    // Every MiB written: a cancelled run stops here (the atomic output file is then discarded).
+    if (const Progress* p = currentProgress()) p->checkCancel();
   }
   std::ofstream& s_;
   std::string buf_;
@@ -232,44 +239,71 @@ std::string cellTypeName(int type) {
   return n ? n : "unknown cell";
 }
 
+// Cancellation check of the running module (if any) every 2^20 items of a copy loop.
+void pollCancel(int64_t i) {
+  if ((i & 0xfffff) != 0) return;
+  if (const Progress* p = currentProgress()) p->checkCancel();
+}
+
 vtkSmartPointer<vtkUnstructuredGrid> meshToGrid(const TetMesh& m) {
   auto grid = vtkSmartPointer<vtkUnstructuredGrid>::New();
 
+  // The grid only lives while it is written, and `m` outlives it: point coordinates and double
+  // fields are handed to VTK without a copy (save = 1: VTK never frees or changes them).
+  auto borrow = [](vtkDoubleArray* a, const double* data, vtkIdType tuples, int components) {
+    a->SetNumberOfComponents(components);
+    a->SetArray(const_cast<double*>(data), tuples * components, 1);
+  };
+  vtkNew<vtkDoubleArray> xyz;
+  static_assert(sizeof(Vec3) == 3 * sizeof(double));
+  borrow(xyz.Get(), m.points.empty() ? nullptr : m.points.front().data(),
+         static_cast<vtkIdType>(m.numPoints()), 3);
   vtkNew<vtkPoints> pts;
-  pts->SetDataTypeToDouble();
-  pts->SetNumberOfPoints(static_cast<vtkIdType>(m.numPoints()));
-  for (size_t i = 0; i < m.numPoints(); ++i)
-    pts->SetPoint(static_cast<vtkIdType>(i), m.points[i].data());
+  pts->SetData(xyz);
   grid->SetPoints(pts);
 
   const vtkIdType nt = static_cast<vtkIdType>(m.numTets());
-  vtkNew<vtkIdTypeArray> offsets;
-  vtkNew<vtkIdTypeArray> conn;
-  offsets->SetNumberOfValues(nt + 1);
-  conn->SetNumberOfValues(4 * nt);
-  for (vtkIdType t = 0; t <= nt; ++t) offsets->SetValue(t, 4 * t);
-  for (vtkIdType t = 0; t < nt; ++t)
-    for (int k = 0; k < 4; ++k) conn->SetValue(4 * t + k, m.tets[static_cast<size_t>(t)][k]);
   vtkNew<vtkCellArray> cells;
-  cells->SetData(offsets, conn);
+  // 32-bit connectivity while it fits (half the memory and time of 64-bit; every VTK reader
+  // reads either width), else 64-bit.
+  auto fill = [&](auto* offsets, auto* conn) {
+    offsets->SetNumberOfValues(nt + 1);
+    conn->SetNumberOfValues(4 * nt);
+    for (vtkIdType t = 0; t <= nt; ++t) {
+      pollCancel(t);
+      offsets->SetValue(t, 4 * t);
+    }
+    for (vtkIdType t = 0; t < nt; ++t) {
+      pollCancel(t);
+      for (int k = 0; k < 4; ++k) conn->SetValue(4 * t + k, m.tets[static_cast<size_t>(t)][k]);
+    }
+    cells->SetData(offsets, conn);
+  };
+  if (4 * nt <= std::numeric_limits<int32_t>::max()) {
+    vtkNew<vtkTypeInt32Array> offsets, conn;
+    fill(offsets.Get(), conn.Get());
+  } else {
+    vtkNew<vtkTypeInt64Array> offsets, conn;
+    fill(offsets.Get(), conn.Get());
+  }
   grid->SetCells(VTK_TETRA, cells);
 
   vtkNew<vtkIntArray> mat;
   mat->SetName(kMaterialArray);
   mat->SetNumberOfComponents(1);
   mat->SetNumberOfTuples(nt);
-  for (vtkIdType t = 0; t < nt; ++t) mat->SetValue(t, m.materials[static_cast<size_t>(t)]);
+  for (vtkIdType t = 0; t < nt; ++t) {
+    pollCancel(t);
+    mat->SetValue(t, m.materials[static_cast<size_t>(t)]);
+  }
   grid->GetCellData()->AddArray(mat);
 
-  auto addFields = [](const std::map<std::string, Field>& fields, vtkDataSetAttributes* attr,
-                      vtkIdType n) {
+  auto addFields = [&borrow](const std::map<std::string, Field>& fields, vtkDataSetAttributes* attr,
+                       vtkIdType n) {
     for (const auto& [name, f] : fields) {
       vtkNew<vtkDoubleArray> a;
       a->SetName(name.c_str());
-      a->SetNumberOfComponents(f.components);
-      a->SetNumberOfTuples(n);
-      if (!f.values.empty())
-        std::memcpy(a->GetPointer(0), f.values.data(), f.values.size() * sizeof(double));
+      borrow(a.Get(), f.values.data(), n, f.components); // sizes checked by validateStructure
       attr->AddArray(a);
     }
   };
@@ -428,6 +462,8 @@ void runVtkWriter(Writer* w, const std::string& path, vtkUnstructuredGrid* grid)
   } catch (const std::exception& e) {
     throw InputError(path + ": cannot write: " + e.what() + "; nothing was written");
   }
+  // The cancellable writers stop by failing their output: that is a cancellation, not an error.
+  if (const Progress* p = currentProgress()) p->checkCancel();
   if (!ok || !msgs->errors.empty() || w->GetErrorCode() != vtkErrorCode::NoError)
     throw InputError(path + ": cannot write: " + vtkFailureText(*msgs, w->GetErrorCode()) +
                      "; nothing was written");
@@ -437,7 +473,8 @@ void runVtkWriter(Writer* w, const std::string& path, vtkUnstructuredGrid* grid)
 void writeVtu(const std::string& path, const TetMesh& m) {
   checkVtkWritable(path, m);
   auto grid = meshToGrid(m);
-  vtkNew<vtkXMLUnstructuredGridWriter> w;
+  pollCancel(0);
+  vtkNew<CancellableVtuWriter> w;
   w->SetDataModeToAppended();
   w->EncodeAppendedDataOff(); // raw binary appended block
   w->SetCompressorTypeToZLib();
@@ -451,7 +488,7 @@ void writeVtu(const std::string& path, const TetMesh& m) {
 void writeVtkLegacy(const std::string& path, const TetMesh& m) {
   checkVtkWritable(path, m);
   auto grid = meshToGrid(m);
-  vtkNew<vtkUnstructuredGridWriter> w;
+  vtkNew<CancellableLegacyVtkWriter> w;
   w->SetFileTypeToBinary();
   // 4.2 layout is read by every VTK version and by most other tools; 5.1 only by VTK >= 9.
   w->SetFileVersion(vtkUnstructuredGridWriter::VTK_LEGACY_READER_VERSION_4_2);

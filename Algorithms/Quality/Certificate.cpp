@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
-#include <parallel/algorithm>
+#include "Algorithms/Core/CancellableSort.h"
 #include <unordered_map>
 
 #include "Algorithms/Core/Errors.h"
@@ -58,7 +58,9 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   progress.beginStage("mesh");
   const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
+  progress.checkCancel();
   DisjointSets meshSets = sameLabelPieces(mesh, nb);
+  progress.checkCancel();
   struct MeshComponent {
     int32_t label = 0;
     int64_t tets = 0;
@@ -69,6 +71,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   {
     std::vector<int32_t> rootComp(mesh.numTets(), -1);
     for (int64_t t = 0; t < nTets; ++t) {
+      if ((t & 0xfffff) == 0) progress.checkCancel();
       const int32_t r = meshSets.find(static_cast<int32_t>(t));
       int32_t& c = rootComp[static_cast<size_t>(r)];
       if (c < 0) {
@@ -83,7 +86,8 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     }
   }
   std::map<uint64_t, std::pair<double, PlaceAcc>> meshContacts;
-  for (int64_t t = 0; t < nTets; ++t)
+  for (int64_t t = 0; t < nTets; ++t) {
+    if ((t & 0xfffff) == 0) progress.checkCancel();
     for (int f = 0; f < 4; ++f) {
       const int32_t o = nb[static_cast<size_t>(4 * t + f)];
       if (o <= t) continue;
@@ -95,6 +99,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       e.first += area;
       e.second.add(c, area);
     }
+  }
   progress.checkCancel();
 
   // --- rasterise: the tet containing each voxel centre (smallest index on shared faces) -------
@@ -363,7 +368,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       }
     }
   }
-  __gnu_parallel::sort(er.begin(), er.end());
+  cancellableSort(er, progress);
   uint64_t lastBadEdge = ~uint64_t(0);
   for (size_t i = 0; i < er.size();) {
     size_t j = i + 1;
@@ -388,16 +393,19 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   // --- interfaces: non-manifold vertices (vertex stars) ------------------------------------
   const size_t nP = mesh.numPoints();
   const VertexStars stars = vertexStars(mesh);
+  progress.checkCancel();
   const std::vector<int64_t>& off = stars.offset;
   const std::vector<int32_t>& star = stars.tets;
   std::vector<uint8_t> badVertex(nP, 0);
   std::vector<std::map<int32_t, int64_t>> badPerLabel(static_cast<size_t>(omp_get_max_threads()));
+  LoopCancel starCancel(progress);
 #pragma omp parallel
   {
     auto& mine = badPerLabel[static_cast<size_t>(omp_get_thread_num())];
     std::vector<int32_t> parent;
 #pragma omp for schedule(dynamic, 1024)
     for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
+      if (starCancel.skip(p)) continue;
       const int64_t b = off[size_t(p)], e = off[size_t(p) + 1];
       if (e - b < 2) continue;
       const int32_t L0 = mesh.materials[size_t(star[size_t(b)])];
@@ -459,6 +467,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       }
     }
   }
+  starCancel.rethrow();
   for (const auto& m : badPerLabel)
     for (const auto& [L, c] : m) byLabel[L].nonmanifoldVertices += c;
   for (size_t p = 0; p < nP; ++p)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <memory>
 #include <cmath>
 
 #include "Algorithms/Core/Errors.h"
@@ -138,31 +139,43 @@ std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) 
     return v;
   };
   std::vector<int64_t> offset(nP + 1, 0);
+  LoopCancel countCancel(progress);
 #pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < n; ++t)
+  for (int64_t t = 0; t < n; ++t) {
+    if (countCancel.skip(t)) continue;
     for (int f = 0; f < 4; ++f)
       std::atomic_ref<int64_t>(offset[static_cast<size_t>(sortedFace(t, f)[0]) + 1]).fetch_add(1, std::memory_order_relaxed);
+  }
+  countCancel.rethrow();
   for (size_t p = 0; p < nP; ++p) offset[p + 1] += offset[p];
   progress.checkCancel();
-  std::vector<BucketFace> faces(static_cast<size_t>(4 * n));
+  // Not value-initialised: every slot is written by the fill below, whose threads then touch the
+  // pages first (zeroing 16 bytes per face up front took longer than the whole fill).
+  const auto faces = std::make_unique_for_overwrite<BucketFace[]>(static_cast<size_t>(4 * n));
   {
     // Filled in any order; every bucket is sorted completely below, so the result is the same.
     std::vector<int64_t> pos(offset.begin(), offset.end() - 1);
+    LoopCancel fillCancel(progress);
 #pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < n; ++t)
+    for (int64_t t = 0; t < n; ++t) {
+      if (fillCancel.skip(t)) continue;
       for (int f = 0; f < 4; ++f) {
         const auto v = sortedFace(t, f);
         const int64_t at =
             std::atomic_ref<int64_t>(pos[static_cast<size_t>(v[0])]).fetch_add(1, std::memory_order_relaxed);
         faces[static_cast<size_t>(at)] = {v[1], v[2], 4 * t + f};
       }
+    }
+    fillCancel.rethrow();
   }
   progress.checkCancel();
   std::vector<int32_t> nb(static_cast<size_t>(4 * n), kNoNeighbour);
+  LoopCancel matchCancel(progress);
 #pragma omp parallel for schedule(dynamic, 4096)
   for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
-    const auto first = faces.begin() + offset[static_cast<size_t>(p)];
-    const auto last = faces.begin() + offset[static_cast<size_t>(p) + 1];
+    if (matchCancel.skip(p)) continue;
+    BucketFace* const first = faces.get() + offset[static_cast<size_t>(p)];
+    BucketFace* const last = faces.get() + offset[static_cast<size_t>(p) + 1];
     std::sort(first, last);
     for (auto i = first; i != last;) {
       auto j = i + 1;
@@ -176,6 +189,7 @@ std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) 
       i = j;
     }
   }
+  matchCancel.rethrow();
   return nb;
 }
 

@@ -6,7 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <parallel/algorithm>
+#include "Algorithms/Core/CancellableSort.h"
 
 #include "Algorithms/Core/Errors.h"
 #include "TetQuality.h"
@@ -18,13 +18,6 @@ namespace {
 __extension__ typedef unsigned __int128 U128;
 
 constexpr int64_t kBlock = 16384; // tets per work unit (cancellation / progress granularity)
-
-// Sort large arrays on all OpenMP threads (libstdc++ parallel mode falls back to a sequential
-// sort for small inputs or one thread).
-template <class It>
-void parallelSort(It first, It last) {
-  __gnu_parallel::sort(first, last);
-}
 
 bool repeatsVertex(const TetMesh::Tet& q) {
   return q[0] == q[1] || q[0] == q[2] || q[0] == q[3] || q[1] == q[2] || q[1] == q[3] ||
@@ -98,7 +91,7 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
                                  q[kOutwardFaces[f][2]]);
   }
   progress.checkCancel();
-  parallelSort(keys.begin(), keys.end());
+  cancellableSort(keys, progress);
   progress.checkCancel();
   progress.report(0.5);
 
@@ -106,7 +99,12 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
   std::vector<uint64_t> edges; // boundary-face edges, (lo << 32) | hi
   size_t i = 0;
   const size_t m = keys.size();
+  size_t nextCheck = size_t(1) << 20;
   while (i < m && keys[i] != none) {
+    if (i >= nextCheck) {
+      progress.checkCancel();
+      nextCheck = i + (size_t(1) << 20);
+    }
     const Key face = keys[i] >> 1;
     size_t j = i;
     int parity1 = 0;
@@ -133,8 +131,9 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
     i = j;
   }
   std::vector<Key>().swap(keys); // release before the edge sort
+  progress.checkCancel();
 
-  parallelSort(edges.begin(), edges.end());
+  cancellableSort(edges, progress);
   for (size_t a = 0; a < edges.size();) {
     size_t b = a;
     while (b < edges.size() && edges[b] == edges[a]) ++b;
@@ -146,7 +145,7 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
   r.boundaryClosed = r.openBoundaryEdges == 0 && r.nonmanifoldBoundaryEdges == 0;
 }
 
-void countDuplicates(const TetMesh& mesh, QualityResult& r) {
+void countDuplicates(const TetMesh& mesh, QualityResult& r, Progress& progress) {
   const int64_t n = static_cast<int64_t>(mesh.numTets());
   std::vector<U128> keys(static_cast<size_t>(n));
 #pragma omp parallel for schedule(static)
@@ -157,7 +156,9 @@ void countDuplicates(const TetMesh& mesh, QualityResult& r) {
     for (int32_t v : q) k = (k << 32) | static_cast<U128>(static_cast<uint32_t>(v));
     keys[static_cast<size_t>(t)] = k;
   }
-  parallelSort(keys.begin(), keys.end());
+  progress.checkCancel();
+  cancellableSort(keys, progress);
+  progress.checkCancel();
   const auto unique = std::unique(keys.begin(), keys.end()) - keys.begin();
   r.duplicateTets = n - static_cast<int64_t>(unique);
 }
@@ -261,13 +262,14 @@ QualityResult evaluateQuality(const TetMesh& mesh, const QualityParams& params, 
 
   // ---- topology: duplicates, faces, boundary, unreferenced vertices -------------------------
   progress.beginStage("topology");
-  countDuplicates(mesh, r);
+  countDuplicates(mesh, r, progress);
   progress.checkCancel();
   if (mesh.numPoints() <= (size_t(1) << 21))
     analyzeFaces<uint64_t, 21>(mesh, r, progress);
   else
     analyzeFaces<U128, 31>(mesh, r, progress);
   {
+    progress.checkCancel();
     std::vector<uint8_t> used(mesh.numPoints(), 0);
     for (const auto& q : mesh.tets)
       for (int32_t v : q) used[static_cast<size_t>(v)] = 1;

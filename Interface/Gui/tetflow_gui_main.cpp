@@ -17,6 +17,7 @@
 #include <cstdio>
 
 #include "Canvas.h"
+#include "Interface/HugePages.h"
 #include "ExecutionController.h"
 #include "MainWindow.h"
 #include "MeshView.h"
@@ -27,6 +28,7 @@ using namespace tetflow;
 using namespace tetflow::gui;
 
 int main(int argc, char** argv) {
+  tetflow::useTransparentHugePages(argv); // first: it may exec the program again
   VtkWidget::preferXcb();              // Debian's VTK is GLX-only (PLATFORM.md 4)
   VtkWidget::setDefaultSurfaceFormat(); // before QApplication (PLATFORM.md 2)
   QApplication app(argc, argv);

@@ -1,12 +1,14 @@
 // Tests for Algorithms/IO/MeshIO: round trips (.vtu, .vtk, TetGen), the Gmsh 4.1 writer checked by
 // an independent parser, and broken / unwritable inputs.
 #include "Algorithms/IO/MeshIO.h"
+#include "Algorithms/IO/VtkCancellableWriters.h"
 
 #include "Algorithms/Core/Progress.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -1098,6 +1100,87 @@ TEST(MeshIOWrite, ACancelledWriteKeepsTheOldFile) {
     expectSameGeometry(other, readMesh(dir.file(name)));
   }
   EXPECT_EQ(dirEntries(dir.path()).size(), 4u) << "keep.vtu, keep.vtk, keep.node, keep.ele and nothing else";
+}
+
+// VTK's writers, through the cancellable subclasses, stop at their first piece once the running
+// module is cancelled: a mesh of 400 k tets is abandoned after a small part of its file.
+TEST(MeshIOWrite, VtkWritersStopEarlyOnceTheModuleIsCancelled) {
+  TempDir dir;
+  const vtkIdType nt = 400000, np = 100000;
+  std::mt19937 rng(3);
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToDouble();
+  pts->SetNumberOfPoints(np);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (vtkIdType i = 0; i < np; ++i) pts->SetPoint(i, u(rng), u(rng), u(rng));
+  vtkNew<vtkUnstructuredGrid> grid;
+  grid->SetPoints(pts);
+  grid->Allocate(nt);
+  for (vtkIdType t = 0; t < nt; ++t) {
+    const vtkIdType ids[4] = {vtkIdType(rng() % np), vtkIdType(rng() % np), vtkIdType(rng() % np),
+                              vtkIdType(rng() % np)};
+    grid->InsertNextCell(VTK_TETRA, 4, ids);
+  }
+  vtkNew<vtkFloatArray> noise; // incompressible, so the full file is large
+  noise->SetName("noise");
+  noise->SetNumberOfTuples(np);
+  for (vtkIdType i = 0; i < np; ++i) noise->SetValue(i, float(u(rng)));
+  grid->GetPointData()->AddArray(noise);
+
+  auto writeBoth = [&](bool cancel) {
+    NullProgress progress;
+    if (cancel) progress.requestCancel();
+    const ScopedCurrentProgress current(&progress);
+    vtkNew<CancellableVtuWriter> vtu;
+    vtu->SetFileName(dir.file("g.vtu").c_str());
+    vtu->SetInputData(grid);
+    vtu->SetDataModeToAppended();
+    vtu->SetCompressorTypeToZLib();
+    const int okVtu = vtu->Write();
+    vtkNew<CancellableLegacyVtkWriter> vtk;
+    vtk->SetFileName(dir.file("g.vtk").c_str());
+    vtk->SetInputData(grid);
+    vtk->SetFileTypeToBinary();
+    const int okVtk = vtk->Write();
+    EXPECT_EQ(okVtu == 1 && vtu->GetErrorCode() == 0, !cancel);
+    EXPECT_EQ(okVtk == 1 && vtk->GetErrorCode() == 0, !cancel);
+    // (The legacy writer deletes its file when its stream fails.)
+    auto size = [&](const char* n) { return fs::exists(dir.file(n)) ? fs::file_size(dir.file(n)) : 0; };
+    return std::array<uintmax_t, 2>{size("g.vtu"), size("g.vtk")};
+  };
+  const auto full = writeBoth(false);
+  EXPECT_GT(full[0], 4000000u);
+  EXPECT_GT(full[1], 4000000u);
+  vtkObject::GlobalWarningDisplayOff(); // the writers' "out of disk space" messages
+  const auto stopped = writeBoth(true);
+  vtkObject::GlobalWarningDisplayOn();
+  EXPECT_LT(stopped[0], full[0] / 4) << "vtu";
+  EXPECT_LT(stopped[1], full[1] / 4) << "vtk";
+}
+
+// The VTK writers borrow the mesh's coordinates and double fields without a copy: writing must
+// leave the mesh exactly as it was (VTK's legacy writer swaps bytes, in its own buffer).
+TEST(MeshIOWrite, WritingLeavesTheMeshUntouched) {
+  TempDir dir;
+  TetMesh m = cubeMesh();
+  Field pf;
+  pf.components = 3;
+  for (size_t i = 0; i < 3 * m.numPoints(); ++i) pf.values.push_back(0.1 * double(i) - 1.0 / 3.0);
+  m.pointFields["flow"] = pf;
+  Field cf;
+  for (size_t t = 0; t < m.numTets(); ++t) cf.values.push_back(std::sqrt(double(t) + 0.5));
+  m.cellFields["quality"] = cf;
+  const TetMesh before = m;
+  for (const std::string name : {"m.vtu", "m.vtk"}) {
+    writeMesh(dir.file(name), m);
+    EXPECT_TRUE(m.points == before.points) << name;
+    EXPECT_TRUE(m.pointFields == before.pointFields) << name;
+    EXPECT_TRUE(m.cellFields == before.cellFields) << name;
+    const TetMesh back = readMesh(dir.file(name));
+    EXPECT_TRUE(back.points == before.points) << name;
+    EXPECT_TRUE(back.pointFields.at("flow") == pf) << name;
+    EXPECT_TRUE(back.cellFields.at("quality") == cf) << name;
+  }
 }
 
 } // namespace
