@@ -117,7 +117,7 @@ void requireMemory(double bytes, const std::string& what, const std::function<st
   if (bytes <= double(avail)) return;
   std::ostringstream m;
   m << what << " would need ~" << formatBytes(bytes) << "; " << formatBytes(double(avail)) << " available";
-  if (const int64_t lim = gLimit; lim > 0) m << " (limit " << formatBytes(double(lim)) << " set by --max-memory)";
+  if (const int64_t lim = gLimit; lim > 0) m << " (limit " << formatBytes(double(lim)) << ", from --max-memory or the GUI's memory limit)";
   const std::string advice = fix ? fix(double(avail)) : std::string();
   if (!advice.empty()) m << "; " << advice;
   throw InputError(m.str());

@@ -9,7 +9,9 @@
 #include <QFileDialog>
 #include <QFileInfo>
 #include <QGuiApplication>
+#include <QInputDialog>
 #include <QLabel>
+#include <QLineEdit>
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QPlainTextEdit>
@@ -21,6 +23,8 @@
 #include <deque>
 #include <set>
 
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/MemoryBudget.h"
 #include "Canvas.h"
 #include "ExecutionController.h"
 #include "GuiStyle.h"
@@ -41,6 +45,11 @@ MainWindow::MainWindow(const ModuleRegistry& registry, QWidget* parent)
   exec_ = new ExecutionController(this);
   createDocks();
   createActions();
+  {
+    // The memory limit chosen last time (Network > Memory Limit...); --max-memory overrides it.
+    const QString saved = QSettings("TetFlow", "tetflow-gui").value("memoryLimit").toString();
+    if (!saved.isEmpty() && !setMemoryLimit(saved, nullptr, false)) tetflow::setMemoryLimit(0);
+  }
 
   connect(scene_, &NetworkScene::message, this, &MainWindow::log);
   connect(scene_, &QGraphicsScene::selectionChanged, this, &MainWindow::onSelectionChanged);
@@ -179,6 +188,51 @@ void MainWindow::createActions() {
   });
   cancelAct_ = add(run, tr("&Cancel"), QKeySequence(Qt::Key_Escape), [this] { cancelExecution(); }, true);
   cancelAct_->setEnabled(false);
+  run->addSeparator();
+  add(run, tr("&Memory Limit..."), QKeySequence(), [this] { editMemoryLimit(); });
+}
+
+bool MainWindow::setMemoryLimit(const QString& size, QString* error, bool remember) {
+  int64_t bytes = 0;
+  if (!size.trimmed().isEmpty()) {
+    try {
+      bytes = parseMemorySize(size.trimmed().toStdString(), "memory limit");
+    } catch (const InputError& e) {
+      if (error) *error = QString::fromStdString(e.what());
+      return false;
+    }
+  }
+  tetflow::setMemoryLimit(bytes);
+  memoryText_ = bytes ? size.trimmed() : QString();
+  if (remember) QSettings("TetFlow", "tetflow-gui").setValue("memoryLimit", memoryText_);
+  log(bytes ? tr("Memory limit %1: a module or 3D view that would need more than what is left of it "
+                 "is refused before it allocates")
+                  .arg(memoryLimitText())
+            : tr("No memory limit: modules and the 3D view are checked against the machine's "
+                 "available memory (%1 now)")
+                  .arg(QString::fromStdString(formatBytes(double(memoryAvailable())))));
+  return true;
+}
+
+QString MainWindow::memoryLimitText() const {
+  return tetflow::memoryLimit() ? memoryText_ : QString();
+}
+
+void MainWindow::editMemoryLimit() {
+  QString text = memoryLimitText();
+  for (;;) {
+    bool ok = false;
+    text = QInputDialog::getText(
+        this, tr("Memory Limit"),
+        tr("Largest amount of memory a run may take, e.g. 8G or 512M.\nEmpty: the machine's "
+           "available memory (%1 now).")
+            .arg(QString::fromStdString(formatBytes(double(memoryAvailable())))),
+        QLineEdit::Normal, text, &ok);
+    if (!ok) return;
+    QString error;
+    if (setMemoryLimit(text, &error)) return;
+    QMessageBox::warning(this, tr("Memory Limit"), error);
+  }
 }
 
 void MainWindow::attachNetwork(std::unique_ptr<Network> net) {

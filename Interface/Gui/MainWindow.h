@@ -57,6 +57,11 @@ public:
   void setInteractive(bool on) { interactive_ = on; }
   void log(const QString& text);
   void raiseReport(); // bring the Report tab to the front
+  // Memory budget of the modules and the 3D view (README "Reliability"): "8G", "512 MB", ...;
+  // empty = the machine's available memory. Kept in the settings when `remember` is set. Returns
+  // false with the reason in *error for a size that cannot be read.
+  bool setMemoryLimit(const QString& size, QString* error = nullptr, bool remember = true);
+  QString memoryLimitText() const; // "" when none
 
 protected:
   void closeEvent(QCloseEvent* e) override;
@@ -69,6 +74,8 @@ private slots:
 
 private:
   void createActions();
+  void editMemoryLimit(); // Network > Memory Limit... dialog
+  QString memoryText_;    // the limit as the user wrote it
   void createDocks();
   void attachNetwork(std::unique_ptr<Network> net);
   bool maybeSave();

@@ -41,8 +41,12 @@ public:
   explicit MeshView(QWidget* parent = nullptr);
   ~MeshView() override;
 
+  // Bytes per tet the view asks the memory budget for before it builds a mesh's surface.
+  static constexpr int64_t kViewBytesPerTet = 128;
+
   // Show a TetMesh or LabelVolume (other types: cleared with a message). Label names are shown
-  // in the legend (label value -> name); a new data object resets the camera.
+  // in the legend (label value -> name); a new data object resets the camera. A mesh whose view
+  // would need more than the memory budget (MemoryBudget.h) is not built: the view shows why.
   void showData(const DataPtr& data, const std::map<int, QString>& labelNames, const QString& title);
   void clearData(const QString& message);
 
@@ -62,6 +66,7 @@ public:
   bool scalarBarVisible() const;
   QListWidget* legend() const { return legend_; }
   const DataPtr& data() const { return data_; }
+  QString statusText() const; // the line under the view (what is shown, or why nothing is)
 
 private:
   void rebuildMesh();

@@ -47,12 +47,23 @@ int main(int argc, char** argv) {
   QCommandLineOption colorOpt("color", "3D view colouring: material or a field name", "FIELD");
   QCommandLineOption outOpt("output-dir", "write relative output files under DIR (as `tetflow run`)", "DIR");
   QCommandLineOption reportOpt("show-report", "bring the Report tab to the front");
-  parser.addOptions({execOpt, selOpt, shotOpt, sizeOpt, clipOpt, colorOpt, outOpt, reportOpt});
+  QCommandLineOption memOpt("max-memory",
+                            "memory budget, e.g. 8G or 512M, for this session (as `tetflow run`; "
+                            "Network > Memory Limit sets a lasting one)",
+                            "SIZE");
+  parser.addOptions({execOpt, selOpt, shotOpt, sizeOpt, clipOpt, colorOpt, outOpt, reportOpt, memOpt});
   parser.process(app);
 
   ModuleRegistry registry;
   registerStandardModules(registry);
   MainWindow win(registry);
+  if (parser.isSet(memOpt)) {
+    QString error;
+    if (!win.setMemoryLimit(parser.value(memOpt), &error, false)) {
+      std::fprintf(stderr, "tetflow-gui: %s\n", qPrintable(error));
+      return 2;
+    }
+  }
   const QStringList size = parser.value(sizeOpt).split('x');
   if (size.size() == 2) win.resize(size[0].toInt(), size[1].toInt());
 

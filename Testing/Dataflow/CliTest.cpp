@@ -330,8 +330,8 @@ TEST(Cli, ARunThatWouldNeedMoreMemoryIsRefusedBeforeAllocating) {
   EXPECT_EQ(r.code, 1) << r.out;
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.out, m, std::regex("m3: CleaveMesh on a background mesh of 1440600 tets would need "
-                                                     "~[0-9.]+ MB; [0-9.]+ MB available \\(limit 100 MB set by "
-                                                     "--max-memory\\); use a background mesh of at most [0-9]+ tets "
+                                                     "~[0-9.]+ MB; [0-9.]+ MB available \\(limit 100 MB, from "
+                                                     "--max-memory or the GUI's memory limit\\); use a background mesh of at most [0-9]+ tets "
                                                      "\\(GenerateBackgroundMesh regular_bcc: cell_size >= ([0-9.]+) mm\\)")))
       << r.out;
   const std::string advised = m[1];

@@ -17,6 +17,7 @@
 #include "Interface/Gui/MeshSurface.h"
 #include "Interface/Gui/MeshView.h"
 #include "Interface/Gui/VtkWidget.h"
+#include "Algorithms/Core/MemoryBudget.h"
 #include "Modules/StandardModules.h"
 
 using namespace tetflow;
@@ -101,6 +102,21 @@ private slots:
     for (double g : grad) QVERIFY(std::abs(g - 0.5) < 1e-12);
     const auto md = computeMinDihedral(m);
     for (double a : md) QVERIFY(a > 30 && a < 90);
+  }
+
+  // Over the memory budget the view builds nothing and says why; within it, it shows the mesh.
+  void refusesAMeshOverTheMemoryBudget() {
+    MeshView mv;
+    tetflow::setMemoryLimit(1); // 1 byte: nothing fits
+    mv.showData(makeData<TetMeshData>(cube()), {}, "cube");
+    tetflow::setMemoryLimit(0);
+    QVERIFY(!mv.data());
+    QVERIFY2(mv.statusText().contains("showing cube (6 tets) in 3D would need") &&
+                 mv.statusText().contains("raise the memory limit"),
+             qPrintable(mv.statusText()));
+    mv.showData(makeData<TetMeshData>(cube()), {}, "cube");
+    QVERIFY(mv.data());
+    QCOMPARE(mv.visibleFaceCount(), size_t(12));
   }
 
   void rendersMeshTogglesClipsAndColours() {

@@ -24,6 +24,7 @@
 #include "Interface/Gui/Palette.h"
 #include "Interface/Gui/ParameterPanel.h"
 #include "Interface/Gui/ReportView.h"
+#include "Algorithms/Core/MemoryBudget.h"
 #include "Modules/StandardModules.h"
 
 using namespace tetflow;
@@ -70,6 +71,26 @@ private slots:
     win_->view()->centerOn(200, 200);
   }
   void cleanup() { win_.reset(); }
+
+  // Network > Memory Limit: the budget the modules and the 3D view check (README "Reliability").
+  void memoryLimitIsSetCheckedAndRemembered() {
+    QString error;
+    QVERIFY(!win_->setMemoryLimit("lots", &error));
+    QVERIFY2(error.contains("memory limit") && error.contains("lots"), qPrintable(error));
+    QVERIFY(win_->setMemoryLimit("1.5G", &error));
+    QCOMPARE(tetflow::memoryLimit(), int64_t(1536) * 1024 * 1024);
+    QCOMPARE(win_->memoryLimitText(), QString("1.5G"));
+    // A new window (a new session) starts with the remembered limit.
+    tetflow::setMemoryLimit(0);
+    {
+      MainWindow again(registry_);
+      QCOMPARE(again.memoryLimitText(), QString("1.5G"));
+      QCOMPARE(tetflow::memoryLimit(), int64_t(1536) * 1024 * 1024);
+      QVERIFY(again.setMemoryLimit("", &error));
+    }
+    QCOMPARE(tetflow::memoryLimit(), int64_t(0));
+    QCOMPARE(MainWindow(registry_).memoryLimitText(), QString());
+  }
 
   void paletteListsRegistryAndFilters() {
     ModulePalette* p = win_->palette();
