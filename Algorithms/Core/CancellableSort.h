@@ -49,20 +49,26 @@ void cancellableSort(std::vector<Key>& keys, Progress& progress) {
   // that fill it.)
   constexpr size_t kBlock = size_t(1) << 20;
   const size_t blocks = (n + kBlock - 1) / kBlock;
+  // body(block, first, last) for every block, on all threads, cancellable between blocks.
+  auto forEachBlock = [&](auto&& body) {
+    LoopCancel cancel(progress);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t blk = 0; blk < static_cast<int64_t>(blocks); ++blk) {
+      if (cancel.skip()) continue;
+      const size_t lo = size_t(blk) * kBlock;
+      body(size_t(blk), lo, std::min(n, lo + kBlock));
+    }
+    cancel.rethrow();
+  };
   const auto copy = std::make_unique_for_overwrite<Key[]>(n);
   std::vector<int64_t> count(blocks * nb, 0);
-  LoopCancel countCancel(progress);
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int64_t blk = 0; blk < static_cast<int64_t>(blocks); ++blk) {
-    if (countCancel.skip()) continue;
-    const size_t lo = size_t(blk) * kBlock, hi = std::min(n, lo + kBlock);
-    int64_t* c = &count[size_t(blk) * nb];
+  forEachBlock([&](size_t blk, size_t lo, size_t hi) {
+    int64_t* c = &count[blk * nb];
     for (size_t i = lo; i < hi; ++i) {
       copy[i] = keys[i];
       ++c[bucketOf(keys[i])];
     }
-  }
-  countCancel.rethrow();
+  });
   std::vector<int64_t> start(nb + 1, 0); // bucket starts
   std::vector<int64_t> at(blocks * nb);  // where each block writes into each bucket
   {
@@ -76,15 +82,10 @@ void cancellableSort(std::vector<Key>& keys, Progress& progress) {
     }
     start[nb] = pos;
   }
-  LoopCancel scatterCancel(progress);
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int64_t blk = 0; blk < static_cast<int64_t>(blocks); ++blk) {
-    if (scatterCancel.skip()) continue;
-    const size_t lo = size_t(blk) * kBlock, hi = std::min(n, lo + kBlock);
-    int64_t* w = &at[size_t(blk) * nb];
+  forEachBlock([&](size_t blk, size_t lo, size_t hi) {
+    int64_t* w = &at[blk * nb];
     for (size_t i = lo; i < hi; ++i) keys[size_t(w[bucketOf(copy[i])]++)] = copy[i];
-  }
-  scatterCancel.rethrow();
+  });
   LoopCancel sortCancel(progress);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t b = 0; b < static_cast<int64_t>(nb); ++b) {
