@@ -115,18 +115,18 @@ int main(int argc, char** argv) {
       << omp_get_max_threads() << "); mesh_s = background + cleave seconds\n";
   NullProgress np;
 
-  // Head phantom, as the default net (regular 4 mm, blend_sigma 1) and the levers around it.
+  // Head phantom, as the default net (regular 4 mm, blend_sigma 0.3) and the levers around it.
   const Phantom ph = makePhantom(PhantomParams{});
   auto vol = std::make_shared<const LabelVolume>(ph.volume);
   out << "head phantom 97^3 voxels of 2 mm, labels 1 scalp, 2 skull, 3 CSF (one voxel), 4 brain; air stripped:\n"
       << kHeader;
   std::cout << out.str() << std::flush;
-  for (double sigma : {1.0, 0.5}) {
+  for (double sigma : {1.0, 0.5, 0.3}) {
     const LabelMaterials head(vol, sigma);
     for (double cell : {4.0, 3.0, 2.0}) {
       char w[128];
-      std::snprintf(w, sizeof w, "regular %.0f mm, blend_sigma %.1f%s", cell, sigma,
-                    cell == 4.0 ? (sigma == 1.0 ? " (old default)" : " (default)") : "");
+      const char* which = sigma == 1.0 ? " (old default)" : sigma == 0.5 ? " (previous default)" : " (default)";
+      std::snprintf(w, sizeof w, "regular %.0f mm, blend_sigma %.1f%s", cell, sigma, cell == 4.0 ? which : "");
       std::string r = regular(w, head, *vol, cell, true);
       if (cell == 4.0 && sigma == 0.5) {
         const double a = now();
