@@ -37,18 +37,25 @@ void requireCleaveMemory(const TetMesh& bg, bool calibration) {
 class CleaveMesh : public Module {
 public:
   void execute(ExecutionContext& ctx) override {
+    // Indicator functions and the working copy of the background: a stage of its own, so that
+    // its time is reported and a cancellation between its steps is seen.
+    ctx.progress().beginStage("prepare");
     const auto mats = materialsFromInput(ctx.input(0), ctx.getDouble("blend_sigma"));
+    ctx.progress().checkCancel();
     const TetMesh& bgMesh = ctx.inputAs<TetMeshData>(1).value;
     requireCleaveMemory(bgMesh, ctx.getInt("volume_calibration") > 0);
     BackgroundMesh bg;
-    bg.mesh = bgMesh; // the cleaver warps a copy of the vertex positions only
-    bg.mesh.pointFields.clear();
-    bg.mesh.cellFields.clear();
+    bg.mesh.points = bgMesh.points; // the cleaver warps a copy of the vertex positions only
+    ctx.progress().checkCancel();
+    bg.mesh.tets = bgMesh.tets;
+    ctx.progress().checkCancel();
+    bg.mesh.materials = bgMesh.materials;
     auto it = bgMesh.pointFields.find("lattice_kind");
     if (it != bgMesh.pointFields.end() && it->second.components == 1) {
       bg.kind.reserve(bgMesh.numPoints());
       for (double k : it->second.values) bg.kind.push_back(static_cast<LatticeVertexKind>(int(k)));
     }
+    ctx.progress().checkCancel();
     CleaveParams p;
     p.alpha_short = ctx.getDouble("alpha_short");
     p.alpha_long = ctx.getDouble("alpha_long");

@@ -7,15 +7,20 @@ void Cleaver::computeBoxConstraints() {
   frame_ = mats_.grid().direction;
   const int64_t nv = static_cast<int64_t>(m_.points.size());
   allStart_.assign(static_cast<size_t>(nv) + 1, 0);
-  for (const auto& q : m_.tets)
-    for (int32_t v : q) ++allStart_[v + 1];
+  for (size_t t = 0; t < m_.tets.size(); ++t) {
+    if ((t & 0xfffff) == 0) progress_.checkCancel();
+    for (int32_t v : m_.tets[t]) ++allStart_[v + 1];
+  }
   for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
   allList_.resize(static_cast<size_t>(allStart_[nv]));
   {
     std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
-    for (size_t t = 0; t < m_.tets.size(); ++t)
+    for (size_t t = 0; t < m_.tets.size(); ++t) {
+      if ((t & 0xfffff) == 0) progress_.checkCancel();
       for (int32_t v : m_.tets[t]) allList_[fill[v]++] = static_cast<int32_t>(t);
+    }
   }
+  progress_.checkCancel();
   fixedAxes_.assign(static_cast<size_t>(nv), 0);
   std::vector<Vec3> local(static_cast<size_t>(nv));
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
