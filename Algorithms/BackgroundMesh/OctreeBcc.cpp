@@ -116,7 +116,7 @@ int64_t SizingOctree::balance(std::vector<uint64_t> queue, const Progress* progr
   int64_t splits = 0, popped = 0;
   const int L = finestLevel;
   while (!queue.empty()) {
-    if (progress && (++popped & 0xffff) == 0) progress->checkCancel();
+    if (progress) progress->checkCancelEvery(++popped, 16);
     const uint64_t key = queue.back();
     queue.pop_back();
     if (!leafSet.count(key)) continue;
@@ -137,7 +137,7 @@ int64_t SizingOctree::balance(std::vector<uint64_t> queue, const Progress* progr
   return splits;
 }
 
-void SizingOctree::finish(OctreeBccStats& st, Progress* progress) {
+void SizingOctree::finish(OctreeBccStats& st, const Progress* progress) {
   leaves.assign(leafSet.begin(), leafSet.end());
   if (progress) cancellableSort(leaves, *progress);
   else std::sort(leaves.begin(), leaves.end());
@@ -313,7 +313,6 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   // 2. Balance: leaves touching by a face, edge or corner differ by at most one level.
   tree.leafSet = std::move(leaves);
   std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
-  progress.checkCancel();
   cancellableSort(all, progress);
   st.balanceSplits += tree.balance(std::move(all), &progress);
   progress.checkCancel();
@@ -360,7 +359,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   };
   int64_t visited = 0;
   for (uint64_t key : sorted) {
-    if ((++visited & 0xffff) == 0) progress.checkCancel();
+    progress.checkCancelEvery(++visited, 16);
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - keyLevel(key));
     for (int q = 0; q < 8; ++q)
@@ -378,7 +377,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   // only reads the vertex map and can run in parallel).
   const int64_t finest[3] = {tree.roots[0] << L, tree.roots[1] << L, tree.roots[2] << L};
   for (uint64_t key : sorted) {
-    if ((++visited & 0xffff) == 0) progress.checkCancel();
+    progress.checkCancelEvery(++visited, 16);
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - keyLevel(key));
     for (int face = 0; face < 6; ++face) {

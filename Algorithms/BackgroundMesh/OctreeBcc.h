@@ -84,7 +84,7 @@ struct SizingOctree {
   // leaves in `queue` and everything split meanwhile, returning the number of splits.
   void split(uint64_t key, std::vector<uint64_t>* touched);
   int64_t balance(std::vector<uint64_t> queue, const Progress* progress = nullptr);
-  void finish(OctreeBccStats& stats, Progress* progress = nullptr);
+  void finish(OctreeBccStats& stats, const Progress* progress = nullptr);
 };
 // Refines and balances as described above; fills stats except the tet counts.
 SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& params,

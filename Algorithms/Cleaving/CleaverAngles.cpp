@@ -48,7 +48,7 @@ void Cleaver::optimizeAngles(TetMesh& out) {
     }
   std::vector<std::vector<int32_t>> around(cand.size());
   for (int64_t t = 0; t < nt; ++t) {
-    if ((t & 0xfffff) == 0) progress_.checkCancel();
+    progress_.checkCancelEvery(t);
     for (int32_t v : out.tets[t])
       if (slot[v] >= 0) around[slot[v]].push_back(static_cast<int32_t>(t));
   }

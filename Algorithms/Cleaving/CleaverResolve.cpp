@@ -142,7 +142,7 @@ void Cleaver::closure() {
   for (int32_t t = 0; t < static_cast<int32_t>(itet_.size()); ++t) pushTet(t);
   int64_t popped = 0;
   while (!work_.empty()) {
-    if ((++popped & 0xffff) == 0) progress_.checkCancel();
+    progress_.checkCancelEvery(++popped, 16);
     const auto [kind, idx] = work_.front();
     work_.pop_front();
     if (kind == kTriple) {

@@ -8,7 +8,7 @@ void Cleaver::computeBoxConstraints() {
   const int64_t nv = static_cast<int64_t>(m_.points.size());
   allStart_.assign(static_cast<size_t>(nv) + 1, 0);
   for (size_t t = 0; t < m_.tets.size(); ++t) {
-    if ((t & 0xfffff) == 0) progress_.checkCancel();
+    progress_.checkCancelEvery(int64_t(t));
     for (int32_t v : m_.tets[t]) ++allStart_[v + 1];
   }
   for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
@@ -16,7 +16,7 @@ void Cleaver::computeBoxConstraints() {
   {
     std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
     for (size_t t = 0; t < m_.tets.size(); ++t) {
-      if ((t & 0xfffff) == 0) progress_.checkCancel();
+      progress_.checkCancelEvery(int64_t(t));
       for (int32_t v : m_.tets[t]) allList_[fill[v]++] = static_cast<int32_t>(t);
     }
   }
@@ -147,7 +147,7 @@ void Cleaver::buildInterfaces() {
   auto buildCsr = [&](size_t n, int per, auto key, std::vector<int64_t>& start, std::vector<int32_t>& list) {
     start.assign(n + 1, 0);
     for (int64_t t = 0; t < ni; ++t) {
-      if ((t & 0xfffff) == 0) progress_.checkCancel();
+      progress_.checkCancelEvery(int64_t(t));
       for (int k = 0; k < per; ++k) ++start[static_cast<size_t>(key(t, k)) + 1];
     }
     for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
@@ -155,7 +155,7 @@ void Cleaver::buildInterfaces() {
     list.resize(static_cast<size_t>(start[n]));
     std::vector<int64_t> fill(start.begin(), start.end() - 1);
     for (int64_t t = 0; t < ni; ++t) {
-      if ((t & 0xfffff) == 0) progress_.checkCancel();
+      progress_.checkCancelEvery(int64_t(t));
       for (int k = 0; k < per; ++k) list[fill[key(t, k)]++] = static_cast<int32_t>(t);
     }
   };

@@ -136,7 +136,7 @@ void Cleaver::generalize() {
   // lowest dimension, then the most collocated cuts, then the lowest id.
   progress_.checkCancel();
   for (int32_t f = 0; f < nf; ++f) {
-    if ((f & 0xffff) == 0) progress_.checkCancel();
+    progress_.checkCancelEvery(f, 16);
     if (triReal_[f]) continue;
     const auto& v = faceV_[f];
     int32_t edges[3][2];

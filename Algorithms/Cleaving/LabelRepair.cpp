@@ -1,7 +1,5 @@
 #include "LabelRepair.h"
 
-#include "Algorithms/Core/CancellableSort.h"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -294,7 +292,7 @@ void repairConnections(Steps& s) {
     std::map<int32_t, std::vector<int64_t>> tetsOf;
     std::map<int32_t, std::set<int32_t>> compsOf;
     for (int64_t t = 0; t < n; ++t) {
-      if ((t & 0xfffff) == 0) progress.checkCancel();
+      progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
       if (primary[size_t(r)] || vote[size_t(t)] < 0) continue;
       compsOf[r].insert(vote[size_t(t)]);
@@ -381,7 +379,7 @@ void repairEdges(Steps& s) {
   };
   std::vector<EdgeTet> ring;
   for (int64_t t = 0; t < n; ++t) {
-    if ((t & 0xfffff) == 0) progress.checkCancel();
+    progress.checkCancelEvery(t);
     bool mixed = false;
     for (int f = 0; f < 4 && !mixed; ++f) {
       const int32_t o = nb[size_t(4 * t + f)];
@@ -511,7 +509,7 @@ void repairFragments(Steps& s) {
     // Pieces (by root), their volume, and the primary piece of every image component.
     std::vector<double> volume(mesh.numTets(), 0.0);
     for (int64_t t = 0; t < n; ++t) {
-      if ((t & 0xfffff) == 0) progress.checkCancel();
+      progress.checkCancelEvery(t);
       volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
     }
     const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
@@ -520,7 +518,7 @@ void repairFragments(Steps& s) {
     std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
     std::vector<int64_t> candidateTets;
     for (int64_t t = 0; t < n; ++t) {
-      if ((t & 0xfffff) == 0) progress.checkCancel();
+      progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
       if (primary[size_t(r)] || volume[size_t(r)] >= limit) continue;
       candidateTets.push_back(t);

@@ -1,9 +1,9 @@
 #include "VolumeCalibration.h"
 
 #include <algorithm>
-#include <memory>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"

@@ -20,7 +20,7 @@
 namespace tetflow {
 
 template <class Key>
-void cancellableSort(std::vector<Key>& keys, Progress& progress) {
+void cancellableSort(std::vector<Key>& keys, const Progress& progress) {
   const size_t n = keys.size();
   constexpr size_t kSmall = size_t(1) << 18; // below this one std::sort takes a few ms
   if (n <= kSmall) {

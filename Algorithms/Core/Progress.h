@@ -35,13 +35,12 @@ public:
     noteCheck(file, line);
     if (cancel_.load(std::memory_order_relaxed)) throw Cancelled();
   }
-
-  // Diagnostic for the cancellation promise (README "Reliability"): with the environment variable
-  // TETFLOW_CANCEL_GAPS set, every stage prints to stderr the longest wall-clock stretch in which
-  // no thread checked for cancellation (from the stage's start to its end), and the two checks
-  // (source lines) around it. That stretch bounds how long a Ctrl-C waits in the stage. Off by
-  // default; costs one relaxed load per check.
-  static bool gapTracing() { return gapTracing_.load(std::memory_order_relaxed); }
+  // checkCancel() when i is a multiple of 2^log2Stride: for serial loops, `checkCancelEvery(t)`
+  // checks once per 2^20 iterations.
+  void checkCancelEvery(int64_t i, int log2Stride = 20, const char* file = __builtin_FILE(),
+                        unsigned line = __builtin_LINE()) const {
+    if ((i & ((int64_t(1) << log2Stride) - 1)) == 0) checkCancel(file, line);
+  }
 
   struct StageTime {
     std::string name;
@@ -55,8 +54,14 @@ protected:
   virtual void onReport(double /*fraction*/) {}
 
 private:
+  // Diagnostic for the cancellation promise (README "Reliability"): with the environment variable
+  // TETFLOW_CANCEL_GAPS set, every stage prints to stderr the longest wall-clock stretch in which
+  // no thread checked for cancellation (from the stage's start to its end), and the two checks
+  // (source lines) around it. That stretch bounds how long a Ctrl-C waits in the stage. Off by
+  // default; costs one relaxed load per check.
+  static bool gapTracing() { return gapTracing_.load(std::memory_order_relaxed); }
   void noteCheck(const char* file, unsigned line) const {
-    if (gapTracing_.load(std::memory_order_relaxed)) recordCheck(file, line);
+    if (gapTracing()) recordCheck(file, line);
   }
   void recordCheck(const char* file, unsigned line) const;
   void reportGap() const;

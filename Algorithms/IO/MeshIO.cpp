@@ -241,8 +241,7 @@ std::string cellTypeName(int type) {
 
 // Cancellation check of the running module (if any) every 2^20 items of a copy loop.
 void pollCancel(int64_t i) {
-  if ((i & 0xfffff) != 0) return;
-  if (const Progress* p = currentProgress()) p->checkCancel();
+  if (const Progress* p = currentProgress()) p->checkCancelEvery(i);
 }
 
 vtkSmartPointer<vtkUnstructuredGrid> meshToGrid(const TetMesh& m) {
@@ -473,7 +472,6 @@ void runVtkWriter(Writer* w, const std::string& path, vtkUnstructuredGrid* grid)
 void writeVtu(const std::string& path, const TetMesh& m) {
   checkVtkWritable(path, m);
   auto grid = meshToGrid(m);
-  pollCancel(0);
   vtkNew<CancellableVtuWriter> w;
   w->SetDataModeToAppended();
   w->EncodeAppendedDataOff(); // raw binary appended block

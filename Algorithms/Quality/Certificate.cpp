@@ -8,9 +8,9 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
-#include "Algorithms/Core/CancellableSort.h"
 #include <unordered_map>
 
+#include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "LabelTopology.h"
 
@@ -71,7 +71,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   {
     std::vector<int32_t> rootComp(mesh.numTets(), -1);
     for (int64_t t = 0; t < nTets; ++t) {
-      if ((t & 0xfffff) == 0) progress.checkCancel();
+      progress.checkCancelEvery(t);
       const int32_t r = meshSets.find(static_cast<int32_t>(t));
       int32_t& c = rootComp[static_cast<size_t>(r)];
       if (c < 0) {
@@ -87,7 +87,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   }
   std::map<uint64_t, std::pair<double, PlaceAcc>> meshContacts;
   for (int64_t t = 0; t < nTets; ++t) {
-    if ((t & 0xfffff) == 0) progress.checkCancel();
+    progress.checkCancelEvery(t);
     for (int f = 0; f < 4; ++f) {
       const int32_t o = nb[static_cast<size_t>(4 * t + f)];
       if (o <= t) continue;

@@ -90,9 +90,7 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
                : faceKey<Key, B>(q[kOutwardFaces[f][0]], q[kOutwardFaces[f][1]],
                                  q[kOutwardFaces[f][2]]);
   }
-  progress.checkCancel();
-  cancellableSort(keys, progress);
-  progress.checkCancel();
+  cancellableSort(keys, progress); // checks for cancellation itself
   progress.report(0.5);
 
   // Scan groups of equal faces (keys equal up to the parity bit).
@@ -156,9 +154,7 @@ void countDuplicates(const TetMesh& mesh, QualityResult& r, Progress& progress) 
     for (int32_t v : q) k = (k << 32) | static_cast<U128>(static_cast<uint32_t>(v));
     keys[static_cast<size_t>(t)] = k;
   }
-  progress.checkCancel();
-  cancellableSort(keys, progress);
-  progress.checkCancel();
+  cancellableSort(keys, progress); // checks for cancellation itself
   const auto unique = std::unique(keys.begin(), keys.end()) - keys.begin();
   r.duplicateTets = n - static_cast<int64_t>(unique);
 }

@@ -48,7 +48,7 @@ MainWindow::MainWindow(const ModuleRegistry& registry, QWidget* parent)
   {
     // The memory limit chosen last time (Network > Memory Limit...); --max-memory overrides it.
     const QString saved = QSettings("TetFlow", "tetflow-gui").value("memoryLimit").toString();
-    if (!saved.isEmpty() && !setMemoryLimit(saved, nullptr, false)) tetflow::setMemoryLimit(0);
+    if (!saved.isEmpty()) setMemoryLimit(saved, nullptr, false); // an unreadable one is ignored
   }
 
   connect(scene_, &NetworkScene::message, this, &MainWindow::log);
