@@ -96,7 +96,25 @@ public:
           r.materials[i].meshVolume = now[i].volume;
         }
     }
+    // Label-preserving improvement of the final labels (after the repair): the worst tets up to
+    // the angle targets.
+    const bool improveOn = ctx.getBool("improve");
+    ImproveParams ip = improveParamsFrom(ctx, "improve_");
+    ImproveStats improved;
+    if (improveOn) {
+      improved = improveMesh(r.mesh, ip, ctx.progress());
+      const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats->labels());
+      for (size_t i = 0; i < r.materials.size(); ++i)
+        if (!r.materials[i].stripped) {
+          r.materials[i].tets = now[i].tets;
+          r.materials[i].meshVolume = now[i].volume;
+        }
+    }
     writeCleaveReport(r, ctx.report());
+    if (improveOn) {
+      writeImproveReport(improved, ip, ctx.report());
+      logUnfixed(ctx, improved, ip);
+    }
     if (repairOn) writeLabelRepairReport(repair, ctx.report());
     if (rounds > 0) writeVolumeCalibrationReport(calibration, mats->labels(), ctx.report());
     ctx.report().set("background", bg.kind.empty() ? "unstructured" : "bcc_lattice");
@@ -152,7 +170,12 @@ void registerCleaveMesh(ModuleRegistry& r) {
                         "label repair also where labels that never touch meet at a vertex or edge "
                         "(thin layers pinched to nothing): no such contact left, but on a coarse "
                         "lattice the layer becomes a whole tet thick there"),
-              volumeCalibration};
+              volumeCalibration,
+              makeParam("improve", ParamType::Bool, true, "",
+                        "after cleaving (and the label repair), label-preserving mesh improvement "
+                        "toward every dihedral angle in [improve_min_angle, improve_max_angle] "
+                        "(the ImproveMesh module's operations)")};
+  for (ParamSpec& s : improveParamSpecs("improve_")) m.params.push_back(std::move(s));
   m.summaryKeys = {"tets", "materials_lost"};
   m.factory = [] { return std::make_unique<CleaveMesh>(); };
   r.add(std::move(m));

@@ -15,6 +15,7 @@ void registerStandardModules(ModuleRegistry& r) {
   registerComputeSizingField(r);
   registerGenerateBackgroundMesh(r);
   registerCleaveMesh(r);
+  registerImproveMesh(r);
   registerAssembleFEMPoisson(r);
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Registration of every TetFlow module. Dataflow never includes concrete modules: tools call this
 // once to fill a registry.
+#include "Algorithms/MeshImprovement/MeshImprovement.h"
 #include "Dataflow/ModuleRegistry.h"
 
 namespace tetflow {
@@ -20,9 +21,17 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r);
 void registerComputeSizingField(ModuleRegistry& r);
 void registerCleaveMesh(ModuleRegistry& r);
 void registerAssembleFEMPoisson(ModuleRegistry& r);
+void registerImproveMesh(ModuleRegistry& r);
 
 // "LabelVolume or Materials" inputs: a label volume becomes LabelMaterials (blendSigma voxels).
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma);
+
+// Mesh improvement parameters shared by ImproveMesh and CleaveMesh (names prefixed there by
+// "improve_"): min_angle, max_angle, max_volume_change, passes; and the log line when tets are left
+// outside the target.
+std::vector<ParamSpec> improveParamSpecs(const std::string& prefix);
+ImproveParams improveParamsFrom(const ExecutionContext& ctx, const std::string& prefix);
+void logUnfixed(ExecutionContext& ctx, const ImproveStats& s, const ImproveParams& p);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);

@@ -1,0 +1,218 @@
+// Mesh improvement: the topological operations (see MeshImprovement.h). Each builds its new tets
+// on the side, keeps them only when every one is positive and the worst of them scores above the
+// worst of the tets they replace, and then re-tiles the same region with them.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "Algorithms/MeshImprovement/Improver.h"
+
+namespace tetflow::improve_detail {
+
+bool samePermutationParity(const Tet& q, int32_t a, int32_t b, int32_t c, int32_t d) {
+  const int32_t w[4] = {a, b, c, d};
+  int pos[4];
+  for (int i = 0; i < 4; ++i) {
+    pos[i] = -1;
+    for (int j = 0; j < 4; ++j)
+      if (q[j] == w[i]) pos[i] = j;
+  }
+  int inversions = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) inversions += pos[i] > pos[j];
+  return inversions % 2 == 0;
+}
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}
+
+bool Improver::removeEdge(int32_t a, int32_t b, std::vector<int32_t>& touched) {
+  std::vector<int32_t> around, ring;
+  starOf(a, around);
+  for (int32_t t : around)
+    if (std::find(m_.tets[t].begin(), m_.tets[t].end(), b) != m_.tets[t].end()) ring.push_back(t);
+  const size_t n = ring.size();
+  if (n < 3 || n > size_t(kMaxRing)) return false;
+  const int32_t mat = m_.materials[ring[0]];
+  for (int32_t t : ring)
+    if (m_.materials[t] != mat) return false; // the edge is on an interface
+  // The ring of vertices around the edge, in the order c -> d of the positive tets (a, b, c, d).
+  std::vector<std::pair<int32_t, int32_t>> next; // (c, d)
+  for (int32_t t : ring) {
+    int32_t o[2], k = 0;
+    for (int32_t u : m_.tets[t])
+      if (u != a && u != b) o[k++] = u;
+    if (!samePermutationParity(m_.tets[t], a, b, o[0], o[1])) std::swap(o[0], o[1]);
+    next.push_back({o[0], o[1]});
+  }
+  std::vector<int32_t> r{next[0].first};
+  for (size_t i = 1; i < n; ++i) {
+    auto it = std::find_if(next.begin(), next.end(), [&](const auto& e) { return e.first == r.back(); });
+    if (it == next.end()) return false; // open ring: the edge is on the boundary
+    r.push_back(it->second);
+  }
+  {
+    auto it = std::find_if(next.begin(), next.end(), [&](const auto& e) { return e.first == r.back(); });
+    if (it == next.end() || it->second != r[0]) return false;
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j)
+        if (r[i] == r[j]) return false;
+  }
+  const double before = worstOf(ring);
+  // Triangle (i, k, j), i < k < j in ring order, gives the tets (r_k, r_i, r_j, a) and
+  // (r_i, r_k, r_j, b). Best triangulation of the ring polygon by dynamic programming.
+  auto tri = [&](size_t i, size_t k, size_t j) {
+    return std::min(score({r[k], r[i], r[j], a}), score({r[i], r[k], r[j], b}));
+  };
+  double Q[kMaxRing][kMaxRing];
+  int K[kMaxRing][kMaxRing];
+  for (size_t i = 0; i + 1 < n; ++i) Q[i][i + 1] = kInf;
+  for (size_t len = 2; len < n; ++len)
+    for (size_t i = 0; i + len < n; ++i) {
+      const size_t j = i + len;
+      Q[i][j] = -kInf;
+      K[i][j] = -1;
+      for (size_t k = i + 1; k < j; ++k) {
+        const double q = std::min({Q[i][k], Q[k][j], tri(i, k, j)});
+        if (q > Q[i][j]) {
+          Q[i][j] = q;
+          K[i][j] = int(k);
+        }
+      }
+    }
+  if (!(Q[0][n - 1] > before + 1e-9) || !(Q[0][n - 1] > 0)) return false;
+  const int32_t origin = origin_[ring[0]];
+  for (int32_t t : ring) killTet(t);
+  std::vector<std::pair<size_t, size_t>> stack{{0, n - 1}};
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    if (j < i + 2) continue;
+    const size_t k = size_t(K[i][j]);
+    touched.push_back(addTet({r[k], r[i], r[j], a}, mat, origin));
+    touched.push_back(addTet({r[i], r[k], r[j], b}, mat, origin));
+    stack.push_back({i, k});
+    stack.push_back({k, j});
+  }
+  ++st_.edgeRemovals;
+  return true;
+}
+
+bool Improver::flip23(int32_t t, int face, std::vector<int32_t>& touched) {
+  const int32_t u = oppositeTet(t, face);
+  if (u < 0 || m_.materials[u] != m_.materials[t]) return false;
+  const Tet& q = m_.tets[t];
+  const int32_t p = q[face];
+  int32_t x = q[kTetFaceVertices[face][0]], y = q[kTetFaceVertices[face][1]];
+  const int32_t z = q[kTetFaceVertices[face][2]];
+  if (!samePermutationParity(q, x, y, z, p)) std::swap(x, y); // (x, y, z, p) positive
+  int32_t apex = -1;
+  for (int32_t w : m_.tets[u])
+    if (w != x && w != y && w != z) apex = w;
+  const Tet n0{x, y, apex, p}, n1{y, z, apex, p}, n2{z, x, apex, p};
+  const double after = std::min({score(n0), score(n1), score(n2)});
+  const double before = std::min(score(q), score(m_.tets[u]));
+  if (!(after > before + 1e-9) || !(after > 0)) return false;
+  const int32_t mat = m_.materials[t], origin = origin_[t];
+  killTet(t);
+  killTet(u);
+  for (const Tet& nt : {n0, n1, n2}) touched.push_back(addTet(nt, mat, origin));
+  ++st_.flips23;
+  return true;
+}
+
+bool Improver::collapseInto(int32_t t, std::vector<int32_t>& touched) {
+  // A vertex of t whose tets are all of one material and off the boundary goes into another
+  // corner of t: the best of those merges that improves its star.
+  const Tet q = m_.tets[t];
+  int32_t bestU = -1, bestV = -1;
+  double bestScore = -kInf;
+  std::vector<int32_t> star;
+  for (int32_t u : q) {
+    starOf(u, star);
+    const LocalStar s = localStar(star);
+    if (classify(u, s).dof != 3) continue;
+    const double before = worstOf(star);
+    for (int32_t v : q) {
+      if (v == u) continue;
+      double w = kInf;
+      for (const Tet& st : s.tets) {
+        if (std::find(st.begin(), st.end(), v) != st.end()) continue;
+        w = std::min(w, scoreWith(st, u, m_.points[v]));
+        if (w <= before) break;
+      }
+      if (w > before + 1e-9 && w > 0 && w > bestScore) {
+        bestScore = w;
+        bestU = u;
+        bestV = v;
+      }
+    }
+  }
+  if (bestU < 0) return false;
+  starOf(bestU, star);
+  const int32_t mat = m_.materials[star[0]], origin = origin_[t];
+  std::vector<Tet> created;
+  for (int32_t s : star) {
+    Tet nt = m_.tets[s];
+    if (std::find(nt.begin(), nt.end(), bestV) != nt.end()) continue;
+    for (auto& w : nt)
+      if (w == bestU) w = bestV;
+    created.push_back(nt);
+  }
+  for (int32_t s : star) killTet(s);
+  for (const Tet& nt : created) touched.push_back(addTet(nt, mat, origin));
+  ++st_.collapses;
+  return true;
+}
+
+bool Improver::splitEdge(int32_t t, std::vector<int32_t>& touched) {
+  // Edges of t longest first; the first split whose new vertex can be placed so that the halves
+  // beat the tets they replace is kept.
+  const Tet q = m_.tets[t];
+  std::array<std::pair<double, int>, 6> order;
+  for (int e = 0; e < 6; ++e) {
+    const auto [i, j] = kTetEdges[size_t(e)];
+    order[size_t(e)] = {-norm(m_.points[q[size_t(i)]] - m_.points[q[size_t(j)]]), e};
+  }
+  std::sort(order.begin(), order.end());
+  std::vector<int32_t> around, ring;
+  for (const auto& [negLen, e] : order) {
+    const int32_t a = q[size_t(kTetEdges[size_t(e)][0])], b = q[size_t(kTetEdges[size_t(e)][1])];
+    starOf(a, around);
+    ring.clear();
+    for (int32_t s : around)
+      if (std::find(m_.tets[s].begin(), m_.tets[s].end(), b) != m_.tets[s].end()) ring.push_back(s);
+    const double before = worstOf(ring);
+    const int32_t mid = int32_t(m_.points.size());
+    m_.points.push_back(0.5 * (m_.points[a] + m_.points[b]));
+    LocalStar s;
+    for (int32_t r : ring)
+      for (int32_t end : {a, b}) {
+        Tet nt = m_.tets[r];
+        for (auto& w : nt)
+          if (w == end) w = mid;
+        s.tets.push_back(nt);
+        s.mats.push_back(m_.materials[r]);
+      }
+    Vec3 pos;
+    std::vector<double> delta;
+    const double after = optimizePosition(mid, s, pos, delta);
+    if (!(after > before + 1e-9) || !(after > 0)) {
+      m_.points.pop_back();
+      continue;
+    }
+    m_.points[size_t(mid)] = pos;
+    commitVolumeChange(delta);
+    splitEnds_.push_back({a, b});
+    std::vector<int32_t> origins;
+    for (int32_t r : ring) origins.push_back(origin_[r]);
+    for (int32_t r : ring) killTet(r);
+    for (size_t i = 0; i < s.tets.size(); ++i) touched.push_back(addTet(s.tets[i], s.mats[i], origins[i / 2]));
+    ++st_.insertions;
+    return true;
+  }
+  return false;
+}
+
+} // namespace tetflow::improve_detail
