@@ -60,10 +60,24 @@ public:
                        (wantCertificate ? "the label volume on input port 1 (reference)"
                                         : "parameter certificate = true"));
     }
+    // Angle bounds (independent of the certificate): the worst tet against them.
+    const double minBound = ctx.getDouble("require_min_dihedral"), maxBound = ctx.getDouble("require_max_dihedral");
+    std::vector<std::string> angleFailures;
+    if (minBound > 0 && result.minDihedral < minBound)
+      angleFailures.push_back("smallest dihedral angle " + formatDouble(result.minDihedral) + " deg < require_min_dihedral " +
+                         formatDouble(minBound) + " deg (CleaveMesh improve / ImproveMesh raise it)");
+    if (maxBound < 180 && result.maxDihedral > maxBound)
+      angleFailures.push_back("largest dihedral angle " + formatDouble(result.maxDihedral) + " deg > require_max_dihedral " +
+                         formatDouble(maxBound) + " deg (CleaveMesh improve / ImproveMesh lower it)");
     for (const auto& [key, value] : report.entries()) ctx.report().set(key, value);
     if (!failures.empty()) {
       std::string msg = "the mesh fails its certificate: ";
       for (size_t i = 0; i < failures.size(); ++i) msg += (i ? "; " : "") + failures[i];
+      throw ProcessingError(msg);
+    }
+    if (!angleFailures.empty()) {
+      std::string msg = "the mesh fails its angle bounds: ";
+      for (size_t i = 0; i < angleFailures.size(); ++i) msg += (i ? "; " : "") + angleFailures[i];
       throw ProcessingError(msg);
     }
     ctx.setOutput(0, makeData<TetMeshData>(std::move(out)));
@@ -112,7 +126,11 @@ void registerEvaluateQuality(ModuleRegistry& r) {
                 "fail when a robust image component is lost, split or merged, or a spurious mesh "
                 "component exists"),
       makeParam("forbid_spurious_contacts", ParamType::Bool, false, "",
-                "fail when two labels touch in the mesh but not in the image")};
+                "fail when two labels touch in the mesh but not in the image"),
+      doubleParam("require_min_dihedral", 0.0, 0.0, 90.0, "deg",
+                  "fail when any tet's smallest dihedral angle is below this (0 = no check)"),
+      doubleParam("require_max_dihedral", 180.0, 60.0, 180.0, "deg",
+                  "fail when any tet's largest dihedral angle is above this (180 = no check)")};
   m.summaryKeys = {"tets", "min_dihedral_deg", "max_dihedral_deg", "valid", "cert_passed"};
   m.factory = [] { return std::make_unique<EvaluateQuality>(); };
   r.add(std::move(m));

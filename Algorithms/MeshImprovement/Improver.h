@@ -46,7 +46,9 @@ public:
   // ---- the operations (LocalMoves.cpp / LocalFlips.cpp); each returns whether it changed the
   // mesh and appends the tets it created or reshaped to `touched` ----
   bool smoothVertex(int32_t v, std::vector<int32_t>& touched);
-  bool removeEdge(int32_t a, int32_t b, std::vector<int32_t>& touched);
+  // Edge removal inside one material, or (acrossInterface) of an edge on an interface between two
+  // materials, re-diagonalising the interface.
+  bool removeEdge(int32_t a, int32_t b, bool acrossInterface, std::vector<int32_t>& touched);
   bool flip23(int32_t t, int face, std::vector<int32_t>& touched);
   bool collapseInto(int32_t t, std::vector<int32_t>& touched);
   bool splitEdge(int32_t t, std::vector<int32_t>& touched);
@@ -89,6 +91,8 @@ private:
   // there (its current worst when it does not move) and the per-label volume change in *delta.
   double optimizePosition(int32_t v, const LocalStar& s, Vec3& best, std::vector<double>& delta) const;
   void commitVolumeChange(const std::vector<double>& delta);
+  double triangulateRing(const std::vector<int32_t>& poly, int32_t a, int32_t b,
+                         std::vector<std::array<int32_t, 3>>* tris) const;
 
   // ---- driver (MeshImprovement.cpp) ----
   bool improveTet(int32_t t, std::vector<int32_t>& touched);

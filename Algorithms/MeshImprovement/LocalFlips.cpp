@@ -27,46 +27,19 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 }
 
-bool Improver::removeEdge(int32_t a, int32_t b, std::vector<int32_t>& touched) {
-  std::vector<int32_t> around, ring;
-  starOf(a, around);
-  for (int32_t t : around)
-    if (std::find(m_.tets[t].begin(), m_.tets[t].end(), b) != m_.tets[t].end()) ring.push_back(t);
-  const size_t n = ring.size();
-  if (n < 3 || n > size_t(kMaxRing)) return false;
-  const int32_t mat = m_.materials[ring[0]];
-  for (int32_t t : ring)
-    if (m_.materials[t] != mat) return false; // the edge is on an interface
-  // The ring of vertices around the edge, in the order c -> d of the positive tets (a, b, c, d).
-  std::vector<std::pair<int32_t, int32_t>> next; // (c, d)
-  for (int32_t t : ring) {
-    int32_t o[2], k = 0;
-    for (int32_t u : m_.tets[t])
-      if (u != a && u != b) o[k++] = u;
-    if (!samePermutationParity(m_.tets[t], a, b, o[0], o[1])) std::swap(o[0], o[1]);
-    next.push_back({o[0], o[1]});
-  }
-  std::vector<int32_t> r{next[0].first};
-  for (size_t i = 1; i < n; ++i) {
-    auto it = std::find_if(next.begin(), next.end(), [&](const auto& e) { return e.first == r.back(); });
-    if (it == next.end()) return false; // open ring: the edge is on the boundary
-    r.push_back(it->second);
-  }
-  {
-    auto it = std::find_if(next.begin(), next.end(), [&](const auto& e) { return e.first == r.back(); });
-    if (it == next.end() || it->second != r[0]) return false;
-    for (size_t i = 0; i < n; ++i)
-      for (size_t j = i + 1; j < n; ++j)
-        if (r[i] == r[j]) return false;
-  }
-  const double before = worstOf(ring);
-  // Triangle (i, k, j), i < k < j in ring order, gives the tets (r_k, r_i, r_j, a) and
-  // (r_i, r_k, r_j, b). Best triangulation of the ring polygon by dynamic programming.
+// Best triangulation of a polygon of ring vertices (in ring order) around the edge (a, b), by
+// dynamic programming over its sub-polygons: triangle (i, k, j), i < k < j, gives the tets
+// (p_k, p_i, p_j, a) and (p_i, p_k, p_j, b). Returns the worst score of those tets (+inf for a
+// polygon of two vertices) and appends the triangles to *tris.
+double Improver::triangulateRing(const std::vector<int32_t>& poly, int32_t a, int32_t b,
+                                 std::vector<std::array<int32_t, 3>>* tris) const {
+  const size_t n = poly.size();
+  if (n < 3) return kInf;
   auto tri = [&](size_t i, size_t k, size_t j) {
-    return std::min(score({r[k], r[i], r[j], a}), score({r[i], r[k], r[j], b}));
+    return std::min(score({poly[k], poly[i], poly[j], a}), score({poly[i], poly[k], poly[j], b}));
   };
-  double Q[kMaxRing][kMaxRing];
-  int K[kMaxRing][kMaxRing];
+  double Q[kMaxRing + 1][kMaxRing + 1];
+  int K[kMaxRing + 1][kMaxRing + 1];
   for (size_t i = 0; i + 1 < n; ++i) Q[i][i + 1] = kInf;
   for (size_t len = 2; len < n; ++len)
     for (size_t i = 0; i + len < n; ++i) {
@@ -81,21 +54,108 @@ bool Improver::removeEdge(int32_t a, int32_t b, std::vector<int32_t>& touched) {
         }
       }
     }
-  if (!(Q[0][n - 1] > before + 1e-9) || !(Q[0][n - 1] > 0)) return false;
-  const int32_t origin = origin_[ring[0]];
-  for (int32_t t : ring) killTet(t);
-  std::vector<std::pair<size_t, size_t>> stack{{0, n - 1}};
-  while (!stack.empty()) {
-    const auto [i, j] = stack.back();
-    stack.pop_back();
-    if (j < i + 2) continue;
-    const size_t k = size_t(K[i][j]);
-    touched.push_back(addTet({r[k], r[i], r[j], a}, mat, origin));
-    touched.push_back(addTet({r[i], r[k], r[j], b}, mat, origin));
-    stack.push_back({i, k});
-    stack.push_back({k, j});
+  if (tris) {
+    std::vector<std::pair<size_t, size_t>> stack{{0, n - 1}};
+    while (!stack.empty()) {
+      const auto [i, j] = stack.back();
+      stack.pop_back();
+      if (j < i + 2) continue;
+      const size_t k = size_t(K[i][j]);
+      tris->push_back({poly[k], poly[i], poly[j]});
+      stack.push_back({i, k});
+      stack.push_back({k, j});
+    }
   }
-  ++st_.edgeRemovals;
+  return Q[0][n - 1];
+}
+
+bool Improver::removeEdge(int32_t a, int32_t b, bool acrossInterface, std::vector<int32_t>& touched) {
+  std::vector<int32_t> around, ring;
+  starOf(a, around);
+  for (int32_t t : around)
+    if (std::find(m_.tets[t].begin(), m_.tets[t].end(), b) != m_.tets[t].end()) ring.push_back(t);
+  const size_t n = ring.size();
+  if (n < 3 || n > size_t(kMaxRing)) return false;
+  // The ring of vertices around the edge, in the order c -> d of the positive tets (a, b, c, d);
+  // ringTet[i] lies between r[i] and r[i + 1].
+  std::vector<std::pair<int32_t, int32_t>> next; // (c, d)
+  for (int32_t t : ring) {
+    int32_t o[2], k = 0;
+    for (int32_t u : m_.tets[t])
+      if (u != a && u != b) o[k++] = u;
+    if (!samePermutationParity(m_.tets[t], a, b, o[0], o[1])) std::swap(o[0], o[1]);
+    next.push_back({o[0], o[1]});
+  }
+  std::vector<int32_t> r{next[0].first}, ringTet;
+  for (size_t i = 0; i < n; ++i) {
+    auto it = std::find_if(next.begin(), next.end(), [&](const auto& e) { return e.first == r.back(); });
+    if (it == next.end()) return false; // open ring: the edge is on the boundary
+    ringTet.push_back(ring[size_t(it - next.begin())]);
+    r.push_back(it->second);
+  }
+  if (r.back() != r[0]) return false;
+  r.pop_back();
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j)
+      if (r[i] == r[j]) return false;
+  // Materials along the ring: one material, or two arcs of at least two tets each (the edge lies
+  // on the interface between them, which the removal re-diagonalises: the interface triangles
+  // (a, b, r_s) and (a, b, r_e) become (r_s, r_e, a) and (r_s, r_e, b)).
+  std::vector<size_t> changes;
+  for (size_t i = 0; i < n; ++i)
+    if (m_.materials[size_t(ringTet[i])] != m_.materials[size_t(ringTet[(i + n - 1) % n])]) changes.push_back(i);
+  std::vector<std::vector<int32_t>> polys;
+  std::vector<int32_t> polyMat, polyOrigin; // material, and the tet whose cell values it takes
+  if (changes.empty() != !acrossInterface) return false;
+  if (changes.empty()) {
+    polys.push_back(r);
+    polyMat.push_back(m_.materials[size_t(ringTet[0])]);
+    polyOrigin.push_back(origin_[size_t(ringTet[0])]);
+  } else if (changes.size() == 2) {
+    for (int arc = 0; arc < 2; ++arc) {
+      const size_t from = changes[size_t(arc)], to = changes[size_t(1 - arc)];
+      const size_t tets = (to + n - from) % n;
+      if (tets < 2) return false; // the arc would vanish
+      std::vector<int32_t> poly;
+      for (size_t i = from;; i = (i + 1) % n) {
+        poly.push_back(r[i]);
+        if (i == to) break;
+      }
+      polys.push_back(poly);
+      polyMat.push_back(m_.materials[size_t(ringTet[from])]);
+      polyOrigin.push_back(origin_[size_t(ringTet[from])]);
+    }
+  } else {
+    return false;
+  }
+  const double before = worstOf(ring);
+  double after = kInf;
+  std::vector<std::vector<std::array<int32_t, 3>>> tris(polys.size());
+  for (size_t p = 0; p < polys.size(); ++p) after = std::min(after, triangulateRing(polys[p], a, b, &tris[p]));
+  if (!(after > before + 1e-9) || !(after > 0)) return false;
+  // Volumes: re-tiling one material changes nothing; moving the interface moves the volume of the
+  // tet (a, b, r_s, r_e) from one material to the other, which must fit the budget.
+  std::vector<double> delta(labels_.size(), 0.0);
+  if (polys.size() == 2) {
+    for (int32_t t : ring) delta[labelIndex(m_.materials[size_t(t)])] -= m_.tetVolume(size_t(t));
+    for (size_t p = 0; p < polys.size(); ++p)
+      for (const auto& tr : tris[p]) {
+        const Tet ta{tr[0], tr[1], tr[2], a}, tb{tr[1], tr[0], tr[2], b};
+        for (const Tet& q : {ta, tb})
+          delta[labelIndex(polyMat[p])] += signedTetVolume(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]]);
+      }
+    for (size_t l = 0; l < labels_.size(); ++l)
+      if (delta[l] != 0.0 && std::abs(change_[l] + delta[l]) > budget_[l]) return false;
+  }
+  for (int32_t t : ring) killTet(t);
+  for (size_t p = 0; p < polys.size(); ++p)
+    for (const auto& tr : tris[p]) {
+      // tr = (p_k, p_i, p_j): the tets (p_k, p_i, p_j, a) and (p_i, p_k, p_j, b).
+      touched.push_back(addTet({tr[0], tr[1], tr[2], a}, polyMat[p], polyOrigin[p]));
+      touched.push_back(addTet({tr[1], tr[0], tr[2], b}, polyMat[p], polyOrigin[p]));
+    }
+  commitVolumeChange(delta);
+  ++(polys.size() == 2 ? st_.interfaceFlips : st_.edgeRemovals);
   return true;
 }
 

@@ -11,11 +11,44 @@
 
 namespace tetflow {
 
+namespace {
+// Extreme cosines of the 6 dihedral angles of a positive tet, from its outward face normals (the
+// angle at the edge between faces k and l has cos = -n_k.n_l / |n_k||n_l|): no trigonometry, for
+// the scans over every tet and the score. False when the tet is inverted or flat.
+bool dihedralCosRange(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double& lo, double& hi) {
+  const Vec3 e1 = p1 - p0, e2 = p2 - p0, e3 = p3 - p0;
+  const double v6 = dot(e1, cross(e2, e3)); // 6 V
+  if (!(v6 > 0)) return false;
+  // Flat (TetQuality's zero-volume test): V <= kZeroVolumeRelTol * L_max^3.
+  const Vec3 e4 = p2 - p1, e5 = p3 - p1, e6 = p3 - p2;
+  const double l2 = std::max({dot(e1, e1), dot(e2, e2), dot(e3, e3), dot(e4, e4), dot(e5, e5), dot(e6, e6)});
+  if (v6 / 6.0 <= kZeroVolumeRelTol * l2 * std::sqrt(l2)) return false;
+  Vec3 n[4];
+  n[1] = cross(e3, e2);
+  n[2] = cross(e1, e3);
+  n[3] = cross(e2, e1);
+  n[0] = -1.0 * (n[1] + n[2] + n[3]);
+  double len[4];
+  for (int k = 0; k < 4; ++k) len[k] = norm(n[k]);
+  lo = 1.0;
+  hi = -1.0;
+  for (int k = 0; k < 4; ++k)
+    for (int l = k + 1; l < 4; ++l) {
+      const double c = -dot(n[k], n[l]) / (len[k] * len[l]);
+      lo = std::min(lo, c);
+      hi = std::max(hi, c);
+    }
+  return true;
+}
+constexpr double kDeg = M_PI / 180.0;
+} // namespace
+
 double improveScore(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, double minAngle, double maxAngle) {
-  if (!(signedTetVolume(a, b, c, d) > 0) || isZeroVolume(a, b, c, d)) return -1.0;
-  const auto ang = dihedralAngles(a, b, c, d);
-  const auto [lo, hi] = std::minmax_element(ang.begin(), ang.end());
-  return std::min(*lo, (180.0 - *hi) * minAngle / (180.0 - maxAngle));
+  double lo, hi;
+  if (!dihedralCosRange(a, b, c, d, lo, hi)) return -1.0;
+  const double smallest = std::acos(std::clamp(hi, -1.0, 1.0)) / kDeg;
+  const double largest = std::acos(std::clamp(lo, -1.0, 1.0)) / kDeg;
+  return std::min(smallest, (180.0 - largest) * minAngle / (180.0 - maxAngle));
 }
 
 double ImproveStats::maxVolumeChangePercent() const {
@@ -117,32 +150,6 @@ size_t Improver::labelIndex(int32_t label) const {
 
 // ---- driver ----
 
-namespace {
-// Extreme cosines of the 6 dihedral angles of a positive tet, from its outward face normals (the
-// angle at the edge between faces k and l has cos = -n_k.n_l / |n_k||n_l|): no trigonometry, for
-// the scans over every tet. False when the tet is inverted or flat.
-bool dihedralCosRange(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double& lo, double& hi) {
-  if (!(signedTetVolume(p0, p1, p2, p3) > 0) || isZeroVolume(p0, p1, p2, p3)) return false;
-  const Vec3 e1 = p1 - p0, e2 = p2 - p0, e3 = p3 - p0;
-  Vec3 n[4];
-  n[1] = cross(e3, e2);
-  n[2] = cross(e1, e3);
-  n[3] = cross(e2, e1);
-  n[0] = -1.0 * (n[1] + n[2] + n[3]);
-  double len[4];
-  for (int k = 0; k < 4; ++k) len[k] = norm(n[k]);
-  lo = 1.0;
-  hi = -1.0;
-  for (int k = 0; k < 4; ++k)
-    for (int l = k + 1; l < 4; ++l) {
-      const double c = -dot(n[k], n[l]) / (len[k] * len[l]);
-      lo = std::min(lo, c);
-      hi = std::max(hi, c);
-    }
-  return true;
-}
-constexpr double kDeg = M_PI / 180.0;
-} // namespace
 
 void Improver::scanAll(double& mn, double& mx, int64_t& below, int64_t& above, std::vector<int32_t>* bad) const {
   const int64_t nt = int64_t(m_.tets.size());
@@ -220,12 +227,32 @@ bool Improver::improveTet(int32_t t, std::vector<int32_t>& touched) {
   if (p_.flip) {
     const Tet q = m_.tets[size_t(t)];
     for (const auto& [i, j] : kTetEdges)
-      if (removeEdge(q[size_t(i)], q[size_t(j)], touched)) return true;
+      if (removeEdge(q[size_t(i)], q[size_t(j)], false, touched)) return true;
     for (int f = 0; f < 4; ++f)
       if (flip23(t, f, touched)) return true;
   }
   if (p_.collapse && collapseInto(t, touched)) return true;
   if (p_.insert && splitEdge(t, touched)) return true;
+  if (p_.flip) { // moving an interface
+    const Tet q = m_.tets[size_t(t)];
+    for (const auto& [i, j] : kTetEdges)
+      if (removeEdge(q[size_t(i)], q[size_t(j)], true, touched)) return true;
+  }
+  if (p_.smooth) {
+    // Stuck: smooth the vertices around (each raises the worst tet of its own star), which can
+    // make room for the next pass to move this tet's own vertices.
+    const Tet q = m_.tets[size_t(t)];
+    std::vector<int32_t> star, ring;
+    for (int32_t v : q) {
+      starOf(v, star);
+      for (int32_t u : star)
+        for (int32_t w : m_.tets[size_t(u)])
+          if (std::find(q.begin(), q.end(), w) == q.end()) ring.push_back(w);
+    }
+    std::sort(ring.begin(), ring.end());
+    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+    for (int32_t w : ring) changed = smoothVertex(w, touched) || changed;
+  }
   return changed;
 }
 
@@ -394,6 +421,7 @@ void writeImproveReport(const ImproveStats& s, const ImproveParams& p, Report& r
   rep.set("improve_above_max_after", s.aboveMaxAfter);
   rep.set("improve_smoothed", s.smoothed);
   rep.set("improve_edge_removals", s.edgeRemovals);
+  rep.set("improve_interface_flips", s.interfaceFlips);
   rep.set("improve_flips23", s.flips23);
   rep.set("improve_collapses", s.collapses);
   rep.set("improve_insertions", s.insertions);

@@ -75,7 +75,7 @@ struct ImproveStats {
   int64_t tetsBefore = 0, tetsAfter = 0, verticesBefore = 0, verticesAfter = 0;
   double minBefore = 0.0, maxBefore = 0.0, minAfter = 0.0, maxAfter = 0.0; // dihedral [deg]
   int64_t belowMinBefore = 0, aboveMaxBefore = 0, belowMinAfter = 0, aboveMaxAfter = 0;
-  int64_t smoothed = 0, edgeRemovals = 0, flips23 = 0, collapses = 0, insertions = 0;
+  int64_t smoothed = 0, edgeRemovals = 0, interfaceFlips = 0, flips23 = 0, collapses = 0, insertions = 0;
   int passes = 0;
   std::vector<ImproveMaterial> materials; // ascending label
   std::vector<ImproveTet> unfixed;        // the worst remaining (at most 20), worst first

@@ -134,3 +134,88 @@ TEST(CleaveMeshModule, CertificateListsTheLostBlobAndItsThresholdsFailTheModule)
   EXPECT_NE(p.exec.state("q")->error.find("label volume on input port 1"), std::string::npos)
       << p.exec.state("q")->error;
 }
+
+// The improvement stage of CleaveMesh and the ImproveMesh module on Cleaver's spheres at a
+// 3-voxel lattice, where plain cleaving leaves tets below 10 degrees (8.8) and above 160 (165.9).
+namespace {
+struct SpheresPipeline {
+  ModuleRegistry reg;
+  Network net{reg};
+  Executor exec;
+  explicit SpheresPipeline(bool improveInCleave, bool module) {
+    registerStandardModules(reg);
+    net.addModule("ReadIndicatorFunctions", "r");
+    std::string files;
+    for (int i = 1; i <= 4; ++i)
+      files += std::string(i > 1 ? "; " : "") + TETFLOW_TEST_DATA + "/spheres" + std::to_string(i) + ".nrrd";
+    net.setParameterText("r", "filenames", files);
+    net.setParameterText("r", "labels", "1; 2; 3; 4");
+    net.addModule("GenerateBackgroundMesh", "bg");
+    net.setParameterText("bg", "cell_size", "3");
+    net.addModule("CleaveMesh", "cl");
+    net.setParameterText("cl", "improve", improveInCleave ? "true" : "false");
+    net.addModule("EvaluateQuality", "q");
+    net.connect("r", 0, "bg", 0);
+    net.connect("r", 0, "cl", 0);
+    net.connect("bg", 0, "cl", 1);
+    if (module) {
+      net.addModule("ImproveMesh", "im");
+      net.connect("cl", 0, "im", 0);
+      net.connect("im", 0, "q", 0);
+    } else {
+      net.connect("cl", 0, "q", 0);
+    }
+  }
+  const Report& report(const std::string& id) { return exec.state(id)->report; }
+};
+} // namespace
+
+TEST(CleaveMeshModule, ImprovementStageReachesTheAngleTargetsAndReports) {
+  SpheresPipeline off(false, false);
+  ASSERT_TRUE(off.exec.execute(off.net).success);
+  EXPECT_LT(off.report("q").number("min_dihedral_deg"), 10.0);
+  EXPECT_EQ(off.report("cl").find("improve_tets_before"), nullptr);
+  SpheresPipeline on(true, false);
+  ASSERT_TRUE(on.exec.execute(on.net).success) << on.exec.state("cl")->error;
+  const Report& r = on.report("cl");
+  EXPECT_GE(on.report("q").number("min_dihedral_deg"), 10.0);
+  EXPECT_LE(on.report("q").number("max_dihedral_deg"), 160.0);
+  EXPECT_GT(r.number("improve_below_min_before") + r.number("improve_above_max_before"), 0);
+  EXPECT_EQ(r.number("improve_below_min_after"), 0);
+  EXPECT_EQ(r.number("improve_above_max_after"), 0);
+  EXPECT_EQ(r.number("improve_unfixed_tets"), 0);
+  EXPECT_GT(r.number("improve_smoothed") + r.number("improve_edge_removals"), 0);
+  EXPECT_LE(r.number("improve_max_volume_change_percent"), 0.05);
+  EXPECT_DOUBLE_EQ(r.number("improve_min_dihedral_after"), on.report("q").number("min_dihedral_deg"));
+  std::vector<std::string> stages;
+  for (const auto& s : on.exec.state("cl")->stages) stages.push_back(s.name);
+  EXPECT_NE(std::find(stages.begin(), stages.end(), "improve"), stages.end());
+  // The mesh's own per-material figures are those after the improvement (within 0.05 %).
+  EXPECT_NEAR(r.number("material_1_volume_mm3"), off.report("cl").number("material_1_volume_mm3"),
+              5e-4 * off.report("cl").number("material_1_volume_mm3"));
+}
+
+TEST(CleaveMeshModule, ImproveMeshModuleAndAngleBoundsOfEvaluateQuality) {
+  SpheresPipeline p(false, true);
+  p.net.setParameterText("q", "require_min_dihedral", "10");
+  p.net.setParameterText("q", "require_max_dihedral", "160");
+  ASSERT_TRUE(p.exec.execute(p.net).success) << p.exec.state("q")->error;
+  EXPECT_LT(p.report("im").number("improve_min_dihedral_before"), 10.0);
+  EXPECT_GE(p.report("im").number("improve_min_dihedral_after"), 10.0);
+  // Without the improvement the bounds fail the module, naming the angle and the bound.
+  SpheresPipeline bad(false, false);
+  bad.net.setParameterText("q", "require_min_dihedral", "10");
+  EXPECT_FALSE(bad.exec.execute(bad.net).success);
+  const std::string err = bad.exec.state("q")->error;
+  EXPECT_NE(err.find("the mesh fails its angle bounds: smallest dihedral angle"), std::string::npos) << err;
+  EXPECT_NE(err.find("require_min_dihedral 10 deg"), std::string::npos) << err;
+  // A bad parameter value is refused with its name.
+  SpheresPipeline wrong(false, true);
+  std::string msg;
+  try {
+    wrong.net.setParameterText("im", "max_volume_change", "1");
+  } catch (const std::exception& e) {
+    msg = e.what();
+  }
+  EXPECT_NE(msg.find("max_volume_change"), std::string::npos) << msg;
+}
