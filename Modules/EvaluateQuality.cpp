@@ -63,12 +63,35 @@ public:
     // Angle bounds (independent of the certificate): the worst tet against them.
     const double minBound = ctx.getDouble("require_min_dihedral"), maxBound = ctx.getDouble("require_max_dihedral");
     std::vector<std::string> angleFailures;
+    // Tets outside a bound: how many, and the worst with its index and centroid.
+    auto outside = [&](const char* field, bool below, double bound) {
+      const auto it = out.cellFields.find(field);
+      if (it == out.cellFields.end()) return std::string();
+      int64_t count = 0, worst = -1;
+      for (size_t t = 0; t < it->second.values.size(); ++t) {
+        const double a = it->second.values[t];
+        if (below ? a < bound : a > bound) {
+          ++count;
+          if (worst < 0 || (below ? a < it->second.values[size_t(worst)] : a > it->second.values[size_t(worst)]))
+            worst = int64_t(t);
+        }
+      }
+      if (worst < 0) return std::string();
+      const auto& q = in.tets[size_t(worst)];
+      Vec3 c{0, 0, 0};
+      for (int32_t v : q) c = c + 0.25 * in.points[size_t(v)];
+      return ": " + std::to_string(count) + " tet(s), the worst tet " + std::to_string(worst) + " (material " +
+             std::to_string(in.materials[size_t(worst)]) + ") at (" + formatDouble(c[0]) + ", " + formatDouble(c[1]) +
+             ", " + formatDouble(c[2]) + ") mm";
+    };
     if (minBound > 0 && result.minDihedral < minBound)
       angleFailures.push_back("smallest dihedral angle " + formatDouble(result.minDihedral) + " deg < require_min_dihedral " +
-                         formatDouble(minBound) + " deg (CleaveMesh improve / ImproveMesh raise it)");
+                              formatDouble(minBound) + " deg" + outside("min_dihedral", true, minBound) +
+                              " (CleaveMesh improve / ImproveMesh raise it)");
     if (maxBound < 180 && result.maxDihedral > maxBound)
       angleFailures.push_back("largest dihedral angle " + formatDouble(result.maxDihedral) + " deg > require_max_dihedral " +
-                         formatDouble(maxBound) + " deg (CleaveMesh improve / ImproveMesh lower it)");
+                              formatDouble(maxBound) + " deg" + outside("max_dihedral", false, maxBound) +
+                              " (CleaveMesh improve / ImproveMesh lower it)");
     for (const auto& [key, value] : report.entries()) ctx.report().set(key, value);
     if (!failures.empty()) {
       std::string msg = "the mesh fails its certificate: ";

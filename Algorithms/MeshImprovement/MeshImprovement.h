@@ -8,21 +8,31 @@
 //
 // Tets scoring below the goal (min_angle + goal_margin) are worked on, worst first, one at a time
 // (serially, so the result is the same for any number of threads; only the scans are parallel).
-// For each, these operations are tried in order and the first that raises the worst score of the
-// tets it replaces is kept:
-//   smooth    a vertex of the tet moves (pattern search) to maximise the worst score of its tets;
+// For each, these operations are tried in order until one raises the worst score of the tets it
+// replaces (or, for smoothing, of the moved vertex's tets):
+//   smooth    each vertex of the tet moves (pattern search) to maximise the worst score of its tets;
 //   flip      edge removal: the tets around one of its edges, all of one material and closing a
 //             ring of 3..kMaxRing tets, are replaced by the best triangulation of the ring (dynamic
 //             programming over the ring polygon; a ring of 3 is the 3-2 flip); 2-3 flip: the tet
 //             and its neighbour across a face, both of one material, become three tets around the
 //             edge joining their apexes;
 //   collapse  a vertex of the tet whose tets are all of one material and off the boundary is merged
-//             into a neighbour (its star is re-tiled from that neighbour);
+//             into another corner (its star is re-tiled from that corner);
 //   insert    an edge of the tet is split at its midpoint (every tet around it is halved), and the
-//             new vertex is smoothed.
+//             new vertex is smoothed;
+//   flip      interface edge removal: an edge whose ring holds two materials in two arcs of at
+//             least two tets each lies on their interface; the ring is re-triangulated through the
+//             diagonal joining the arcs' ends, which re-diagonalises the interface quadrilateral
+//             around the edge (the volume of the tet between the two diagonals changes sides,
+//             within the volume budget below);
+// and when none helps, the vertices around the tet are smoothed (each for its own star), which
+// often makes room for the next pass. Up to `passes` passes run over the tets still below the goal
+// and the ones the operations created.
 // Labels are preserved because:
 //   - flips and collapses re-tile a region of one material with tets of that material, and an
-//     edge split halves tets in place: no material's region changes at all;
+//     edge split halves tets in place: no material's region changes at all; an interface edge
+//     removal moves one tet's worth of volume across a two-material interface (budgeted) and keeps
+//     both materials' tets around the edge (each arc keeps at least one triangle's pair of tets);
 //   - a vertex moves only as its surroundings allow: inside one material freely; on a surface
 //     between two labels (the outside counts as a label) in its tangent plane; on a curve where
 //     three labels meet along the curve; where four or more labels meet, or at a corner of the
