@@ -1,5 +1,6 @@
 // Lattice cleaving, angle optimisation of the output (see CleaverStages.h).
 #include "Algorithms/Cleaving/CleaverStages.h"
+#include "Algorithms/Core/PatternSearch.h"
 
 namespace tetflow::cleaving_detail {
 
@@ -90,9 +91,6 @@ void Cleaver::optimizeAngles(TetMesh& out) {
     }
     return double(fa) - double(fb);
   };
-  static const Vec3 dirs[] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1},
-                              {1, 1, 1}, {-1, -1, -1}, {1, -1, 1}, {-1, 1, -1}, {1, 1, -1}, {-1, -1, 1},
-                              {-1, 1, 1}, {1, -1, -1}};
   // Work on the worst first, and bound the work: at most 2 % of the vertices (plus 2000) per pass.
   std::vector<double> candScore(cand.size());
   for (size_t i = 0; i < cand.size(); ++i) {
@@ -161,31 +159,20 @@ void Cleaver::optimizeAngles(TetMesh& out) {
         if (!(nn > 0)) return false;
         curveDir = (1.0 / nn) * curveDir;
       }
-      const double maxMove = (tangent || alongCurve) ? 0.1 * len : 0.3 * len;
-      Vec3 bestPos = start;
-      for (double step = 0.15 * len; step > 0.005 * len; step *= 0.5) {
-        bool improved = true;
-        for (int rounds = 0; improved && rounds < 4; ++rounds) {
-          improved = false;
-          const Vec3 base = bestPos;
-          for (const Vec3& d0 : dirs) {
-            Vec3 d = d0;
-            if (tangent) d = d - dot(d, normal) * normal;
-            if (alongCurve) d = dot(d, curveDir) * curveDir;
-            if (!(norm(d) > 1e-6)) continue;
-            const Vec3 trial = base + (step / norm(d)) * d;
-            if (norm(trial - start) > maxMove) continue;
-            out.points[v] = trial;
-            const double w = worst(ts, volume, best + 1e-6);
-            if (w > best + 1e-6) {
-              best = w;
-              bestPos = out.points[v];
-              improved = true;
-            }
-          }
-          out.points[v] = bestPos;
-        }
-      }
+      PatternSearch search;
+      search.dof = tangent ? 2 : alongCurve ? 1 : 3;
+      search.dir = tangent ? normal : curveDir;
+      search.initialStep = 0.15 * len;
+      search.finalStep = 0.005 * len;
+      search.maxMove = (tangent || alongCurve) ? 0.1 * len : 0.3 * len;
+      search.minGain = 1e-6;
+      const Vec3 bestPos = search.run(
+          start, best,
+          [&](const Vec3& at, double floor) {
+            out.points[v] = at;
+            return worst(ts, volume, floor);
+          },
+          [](Vec3&) {}, [] {});
       out.points[v] = bestPos;
       return !(bestPos == start);
   };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "Algorithms/Core/PatternSearch.h"
 #include "Algorithms/MeshImprovement/Improver.h"
 
 namespace tetflow::improve_detail {
@@ -159,34 +160,24 @@ double Improver::optimizePosition(int32_t v, const LocalStar& s, Vec3& bestPos, 
       if (trialDelta[l] != 0.0 && std::abs(change_[l] + trialDelta[l]) > budget_[l]) return false;
     return true;
   };
-  static const Vec3 dirs[] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},  {0, 0, 1},   {0, 0, -1}, {1, 1, 1},
-                              {-1, -1, -1}, {1, -1, 1}, {-1, 1, -1}, {1, 1, -1}, {-1, -1, 1}, {-1, 1, 1}, {1, -1, -1}};
-  const double maxMove = c.dof == 3 ? 0.3 * len : 0.1 * len;
-  for (double step = 0.15 * len; step > 0.002 * len; step *= 0.5) {
-    bool improved = true;
-    for (int rounds = 0; improved && rounds < 4; ++rounds) {
-      improved = false;
-      const Vec3 base = bestPos;
-      for (const Vec3& d0 : dirs) {
-        Vec3 d = d0;
-        if (c.dof == 2) d = d - dot(d, c.dir) * c.dir;
-        if (c.dof == 1) d = dot(d, c.dir) * c.dir;
-        const double nd = norm(d);
-        if (!(nd > 1e-6)) continue;
-        Vec3 trial = base + (step / nd) * d;
+  PatternSearch search;
+  search.dof = c.dof;
+  search.dir = c.dir;
+  search.initialStep = 0.15 * len;
+  search.finalStep = 0.002 * len;
+  search.maxMove = c.dof == 3 ? 0.3 * len : 0.1 * len;
+  // A trial counts only within the volume budget; its per-label change is kept when accepted.
+  bestPos = search.run(
+      start, best,
+      [&](const Vec3& at, double floor) {
+        const double w = worstAt(at, floor);
+        return w > floor && !withinBudget(at) ? floor : w;
+      },
+      [&](Vec3& trial) {
         for (int a = 0; a < 3; ++a)
           if (c.keepAxes >> a & 1) trial[a] = start[a];
-        if (norm(trial - start) > maxMove) continue;
-        const double w = worstAt(trial, best + 1e-9);
-        if (w > best + 1e-9 && withinBudget(trial)) {
-          best = w;
-          bestPos = trial;
-          delta = trialDelta;
-          improved = true;
-        }
-      }
-    }
-  }
+      },
+      [&] { delta = trialDelta; });
   return best;
 }
 
