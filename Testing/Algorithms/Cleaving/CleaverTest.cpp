@@ -14,6 +14,7 @@
 #include "Algorithms/IO/VolumeIO.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Fixtures/RandomCleaverVolumes.h"
+#include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -76,13 +77,7 @@ Outcome cleaveAndCheck(const std::shared_ptr<const LabelVolume>& vol, double cel
   o.r = cleave(bg, mats, cp, np);
   o.q = evaluateQuality(o.r.mesh, QualityParams{}, np);
   SCOPED_TRACE(what);
-  EXPECT_TRUE(o.q.valid);
-  EXPECT_EQ(o.q.inverted, 0);
-  EXPECT_EQ(o.q.zeroVolume, 0);
-  EXPECT_EQ(o.q.duplicateTets, 0);
-  EXPECT_EQ(o.q.nonmanifoldFaces, 0);
-  EXPECT_TRUE(o.q.boundaryClosed);
-  EXPECT_EQ(o.q.unreferencedVertices, 0);
+  tetflow::test::expectValidClosedMesh(o.q);
   EXPECT_NEAR(o.q.volume, bg.boxVolume, 1e-9 * bg.boxVolume);
   EXPECT_EQ(openMaterialSurfaceEdges(o.r.mesh), 0);
   return o;

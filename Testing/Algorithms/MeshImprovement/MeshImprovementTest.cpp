@@ -15,6 +15,7 @@
 #include "Algorithms/Quality/LabelTopology.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Fixtures/RandomCleaverVolumes.h"
+#include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -105,13 +106,7 @@ Case cleaveAndImprove(int kind, unsigned seed, double cell, const ImproveParams&
 // Checks every invariant of a label-preserving improvement of c.before into c.after.
 void expectLabelPreserving(const Case& c, const std::string& what) {
   SCOPED_TRACE(what);
-  EXPECT_TRUE(c.q.valid);
-  EXPECT_EQ(c.q.inverted, 0);
-  EXPECT_EQ(c.q.zeroVolume, 0);
-  EXPECT_EQ(c.q.duplicateTets, 0);
-  EXPECT_EQ(c.q.nonmanifoldFaces, 0);
-  EXPECT_TRUE(c.q.boundaryClosed);
-  EXPECT_EQ(c.q.unreferencedVertices, 0);
+  tetflow::test::expectValidClosedMesh(c.q);
   const auto vb = labelVolumes(c.before), va = labelVolumes(c.after);
   ASSERT_EQ(vb.size(), va.size());
   double total = 0;
