@@ -85,7 +85,9 @@ private:
 
 // Cancellation inside an OpenMP loop, whose body must not throw: `if (c.skip(i)) continue;` at the
 // top of the body polls the progress every 16 k iterations (`c.skip()`: every iteration) and, once
-// cancellation is seen, skips the rest; `c.rethrow()` after the loop throws Cancelled.
+// cancellation is seen, skips the rest; `c.rethrow()` after the loop throws Cancelled. skip(i)
+// polls where i is a multiple of 16384, so use it with schedule(static) or chunks handed out in
+// order (dynamic): with small interleaved static chunks a thread may never meet such an i.
 class LoopCancel {
 public:
   explicit LoopCancel(const Progress& p, const char* file = __builtin_FILE(),

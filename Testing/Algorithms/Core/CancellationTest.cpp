@@ -77,7 +77,11 @@ TEST(LoopCancel, SkipsTheRestOfAnOpenMpLoopAndRethrowsAfterIt) {
   LoopCancel cancel(progress);
   std::atomic<int64_t> ran{0};
   const int64_t n = int64_t(1) << 20;
-#pragma omp parallel for schedule(static, 1024)
+  // Contiguous blocks per thread (as in the code's loops): the thread that asks at i = 100000
+  // polls again itself at i = 114688 and stops; the others stop at their next poll. (With small
+  // interleaved chunks, schedule(static, 1024), the asking thread never met a multiple of 16 k,
+  // and under ASan the other thread could finish first: no poll after the request, no throw.)
+#pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     if (i == 100000) progress.requestCancel();
     if (cancel.skip(i)) continue;
