@@ -13,6 +13,7 @@
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/MeshQuality.h"
+#include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -43,13 +44,8 @@ void expectTilesTheBox(const OctreeBccResult& r, const GridGeometry& g, double p
   NullProgress np;
   const TetMesh& m = r.background.mesh;
   const QualityResult q = evaluateQuality(m, QualityParams{}, np);
-  EXPECT_TRUE(q.valid);
-  EXPECT_EQ(q.inverted, 0);
-  EXPECT_EQ(q.zeroVolume, 0);
-  EXPECT_EQ(q.nonmanifoldFaces, 0);
+  tetflow::test::expectValidClosedMesh(q);
   EXPECT_EQ(q.foldedFaces, 0);
-  EXPECT_TRUE(q.boundaryClosed);
-  EXPECT_EQ(q.unreferencedVertices, 0);
   const Vec3 L = boxLengths(g, pad);
   const double box = L[0] * L[1] * L[2];
   EXPECT_NEAR(q.volume, box, 1e-9 * box);
