@@ -4,6 +4,7 @@
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/BackgroundMesh/OctreeBcc.h"
+#include "Algorithms/BackgroundMesh/Particles.h"
 #include "StandardModules.h"
 
 namespace tetflow {
@@ -32,6 +33,17 @@ void physicalBounds(const GridGeometry& g, Vec3& lo, Vec3& hi) {
   }
 }
 
+void warnIfApart(ExecutionContext& ctx, const GridGeometry& grid, const ScalarVolume& sizing) {
+  Vec3 vlo, vhi, slo, shi;
+  physicalBounds(grid, vlo, vhi);
+  physicalBounds(sizing.grid, slo, shi);
+  bool overlap = true;
+  for (int a = 0; a < 3; ++a) overlap = overlap && slo[a] < vhi[a] && vlo[a] < shi[a];
+  if (!overlap)
+    ctx.log("the sizing field's grid does not overlap the volume: every point takes the field's "
+            "nearest edge value; compute the field from the same volume (ComputeSizingField)");
+}
+
 std::string triple(double a, double b, double c) {
   std::ostringstream s;
   s << a << " x " << b << " x " << c;
@@ -50,7 +62,32 @@ public:
     BackgroundMesh bg;
     Report& r = ctx.report();
     r.set("kind", kind);
-    if (kind == "octree_bcc") {
+    if (kind == "particles") {
+      if (!haveSizing)
+        throw InputError("kind particles needs a sizing field on input port 1 'sizing': connect "
+                         "ComputeSizingField's output, or use kind regular_bcc");
+      warnIfApart(ctx, grid, ctx.inputAs<ScalarVolumeData>(1).value);
+      ParticleParams p;
+      p.padding = ctx.getDouble("padding");
+      p.min_size = ctx.getDouble("min_cell_size");
+      p.max_size = ctx.getDouble("max_cell_size");
+      p.size_scale = ctx.getDouble("particle_size_scale");
+      p.max_iterations = int(ctx.getInt("particle_iterations"));
+      p.theta = ctx.getDouble("particle_theta");
+      p.min_angle = ctx.getDouble("particle_min_angle");
+      p.max_angle = ctx.getDouble("particle_max_angle");
+      p.seed = uint32_t(ctx.getInt("particle_seed"));
+      ParticleMeshResult pm = generateParticleMesh(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress());
+      bg = std::move(pm.background);
+      reportParticleMesh(pm.stats, r);
+      ctx.log("particles: " + std::to_string(pm.stats.iterations) + " iterations (" +
+              formatReportValue(ReportValue(pm.stats.secondsPerIteration)) + " s each, stopped by " +
+              pm.stats.stopReason + "); Delaunay dihedral angles [" +
+              formatReportValue(ReportValue(pm.stats.delaunayMinDihedral)) + ", " +
+              formatReportValue(ReportValue(pm.stats.delaunayMaxDihedral)) + "] -> [" +
+              formatReportValue(ReportValue(pm.stats.minDihedral)) + ", " +
+              formatReportValue(ReportValue(pm.stats.maxDihedral)) + "] after sliver removal");
+    } else if (kind == "octree_bcc") {
       if (!haveSizing)
         throw InputError("kind octree_bcc needs a sizing field on input port 1 'sizing': connect "
                          "ComputeSizingField's output, or use kind regular_bcc");
@@ -61,16 +98,7 @@ public:
       std::shared_ptr<const MaterialSet> mats;
       if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
       const ScalarVolume& sizing = ctx.inputAs<ScalarVolumeData>(1).value;
-      {
-        Vec3 vlo, vhi, slo, shi;
-        physicalBounds(grid, vlo, vhi);
-        physicalBounds(sizing.grid, slo, shi);
-        bool overlap = true;
-        for (int a = 0; a < 3; ++a) overlap = overlap && slo[a] < vhi[a] && vlo[a] < shi[a];
-        if (!overlap)
-          ctx.log("the sizing field's grid does not overlap the volume: every cell takes the field's "
-                  "nearest edge value; compute the field from the same volume (ComputeSizingField)");
-      }
+      warnIfApart(ctx, grid, sizing);
       OctreeBccResult o = generateOctreeBcc(grid, sizing, p, ctx.progress(), mats.get());
       bg = std::move(o.background);
       r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
@@ -88,7 +116,7 @@ public:
                          std::to_string(bg.cells[2]));
       r.set("cell_size_mm", triple(bg.cellSize[0], bg.cellSize[1], bg.cellSize[2]));
     }
-    attachLatticeKind(bg);
+    if (!bg.kind.empty()) attachLatticeKind(bg); // none for particles: CleaveMesh then uses per-vertex alphas
     r.set("vertices", ReportValue(int64_t(bg.mesh.numPoints())));
     r.set("tets", ReportValue(int64_t(bg.mesh.numTets())));
     r.set("box_volume_mm3", ReportValue(bg.boxVolume));
@@ -106,25 +134,42 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
                   "body-centred cubic lattice (regular_bcc), or a BCC lattice graded on a balanced "
                   "octree by a sizing field (octree_bcc).";
   m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "gives the box to cover"},
-              {"sizing", {PortType::ScalarVolume}, "element size field in mm (ComputeSizingField); needed by octree_bcc", true}};
+              {"sizing", {PortType::ScalarVolume}, "element size field in mm (ComputeSizingField); needed by octree_bcc and particles", true}};
   m.outputs = {{"mesh", {PortType::TetMesh}, "background tet mesh"}};
   ParamSpec kind = makeParam("kind", ParamType::Enum, std::string("regular_bcc"), "", "lattice type");
-  kind.choices = {"regular_bcc", "octree_bcc"};
+  kind.choices = {"regular_bcc", "octree_bcc", "particles"};
   ParamSpec cs = doubleParam("cell_size", 4.0, 1e-6, std::nullopt, "mm",
                              "regular_bcc: edge of a lattice cell (rounded per axis so cells tile the box exactly)");
   ParamSpec pad = doubleParam("padding", 0.0, 0.0, std::nullopt, "mm",
                               "margin added around the volume's box on every side");
   ParamSpec minc = doubleParam("min_cell_size", 0.0, 0.0, std::nullopt, "mm",
-                               "octree_bcc: leaves stop splitting at this edge (the finest lie between half of it and it); 0 = the sizing field's minimum");
+                               "octree_bcc: leaves stop splitting at this edge (the finest lie between half of it and it); particles: lower clamp of the spacing; 0 = the sizing field's minimum");
   ParamSpec maxc = doubleParam("max_cell_size", 0.0, 0.0, std::nullopt, "mm",
-                               "octree_bcc: root cell edge; 0 = the sizing field's maximum");
+                               "octree_bcc: root cell edge; particles: upper clamp of the spacing; 0 = the sizing field's maximum");
   ParamSpec uni = makeParam("uniform_interfaces", ParamType::Bool, false, "",
                             "octree_bcc: refine until no graded (transition or bisected) tet is cut by a "
                             "material interface (seed §4.8.1); better angles after cleaving, more tets");
   ParamSpec sigma = doubleParam("blend_sigma", 0.5, 0.05, 10.0, "voxels",
                                 "uniform_interfaces with a label volume: smoothing into indicator "
                                 "functions (use CleaveMesh's value)");
-  m.params = {kind, cs, pad, minc, maxc, uni, sigma};
+  const ParticleParams pd;
+  ParamSpec pscale = doubleParam("particle_size_scale", pd.size_scale, 0.05, 20.0, "",
+                                 "particles: spacing = this x the sizing field");
+  ParamSpec pit = makeParam("particle_iterations", ParamType::Int, int64_t(pd.max_iterations), "",
+                            "particles: relaxation iterations at most (it stops earlier when the energy or the largest move stops falling)");
+  pit.min = 0.0;
+  pit.max = 100000.0;
+  ParamSpec ptheta = doubleParam("particle_theta", pd.theta, 0.0, 1.5, "",
+                                 "particles: Barnes-Hut opening ratio (cell edge / distance; 0 = exact sums)");
+  ParamSpec pmin = doubleParam("particle_min_angle", pd.min_angle, 1.0, 35.0, "deg",
+                               "particles: sliver removal target for the smallest dihedral angle of the background");
+  ParamSpec pmax = doubleParam("particle_max_angle", pd.max_angle, 120.0, 179.0, "deg",
+                               "particles: sliver removal target for the largest dihedral angle of the background");
+  ParamSpec pseed = makeParam("particle_seed", ParamType::Int, int64_t(pd.seed), "",
+                              "particles: seed of the initial placement (the result is the same for any thread count)");
+  pseed.min = 0.0;
+  pseed.max = 2147483647.0;
+  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, pmin, pmax, pseed};
   m.summaryKeys = {"cells", "levels", "tets"};
   m.factory = [] { return std::make_unique<GenerateBackgroundMesh>(); };
   r.add(std::move(m));

@@ -35,8 +35,6 @@ Vec3 boxLengths(const GridGeometry& g, double pad) {
           double(g.dims[2]) * g.spacing[2] + 2 * pad};
 }
 
-double triangleArea(const Vec3& a, const Vec3& b, const Vec3& c) { return 0.5 * norm(cross(b - a, c - a)); }
-
 // Valid, conforming, tiles the box: positive tets, every face in one or two tets, the boundary
 // faces closed and their area equal to the box's surface (a gap or a T-junction inside the box
 // would add boundary area), and the volume equal to the box's.
@@ -46,25 +44,8 @@ void expectTilesTheBox(const OctreeBccResult& r, const GridGeometry& g, double p
   const QualityResult q = evaluateQuality(m, QualityParams{}, np);
   tetflow::test::expectValidClosedMesh(q);
   EXPECT_EQ(q.foldedFaces, 0);
-  const Vec3 L = boxLengths(g, pad);
-  const double box = L[0] * L[1] * L[2];
-  EXPECT_NEAR(q.volume, box, 1e-9 * box);
-  EXPECT_NEAR(r.background.boxVolume, box, 1e-9 * box);
-  std::map<std::array<int32_t, 3>, std::array<int32_t, 3>> faces; // sorted -> original
-  std::map<std::array<int32_t, 3>, int> count;
-  for (const auto& t : m.tets)
-    for (int k = 0; k < 4; ++k) {
-      std::array<int32_t, 3> f{t[(k + 1) % 4], t[(k + 2) % 4], t[(k + 3) % 4]};
-      std::array<int32_t, 3> s = f;
-      std::sort(s.begin(), s.end());
-      ++count[s];
-      faces[s] = f;
-    }
-  double area = 0;
-  for (const auto& [s, c] : count)
-    if (c == 1) area += triangleArea(m.points[s[0]], m.points[s[1]], m.points[s[2]]);
-  const double surface = 2 * (L[0] * L[1] + L[1] * L[2] + L[0] * L[2]);
-  EXPECT_NEAR(area, surface, 1e-9 * surface);
+  tetflow::test::expectTilesBox(m, q, boxLengths(g, pad));
+  EXPECT_NEAR(r.background.boxVolume, q.volume, 1e-9 * q.volume);
   EXPECT_GE(q.minDihedral, minAngle);
   EXPECT_EQ(r.background.kind.size(), m.numPoints());
 }

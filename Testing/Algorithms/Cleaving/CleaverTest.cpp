@@ -34,35 +34,6 @@ void boxOf(const GridGeometry& g, Vec3& lo, Vec3& hi) {
   }
 }
 
-// Every material's surface (faces against another material or the outside) is closed: each of
-// its edges is used by an even number of those faces.
-int64_t openMaterialSurfaceEdges(const TetMesh& m) {
-  std::map<std::array<int32_t, 3>, std::vector<size_t>> faces;
-  for (size_t t = 0; t < m.tets.size(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      std::array<int32_t, 3> k;
-      int n = 0;
-      for (int i = 0; i < 4; ++i)
-        if (i != f) k[n++] = m.tets[t][i];
-      std::sort(k.begin(), k.end());
-      faces[k].push_back(t);
-    }
-  std::map<std::pair<int32_t, std::pair<int32_t, int32_t>>, int> edgeUse; // (material, edge)
-  for (const auto& [k, ts] : faces) {
-    std::vector<int32_t> mats;
-    if (ts.size() == 1) mats = {m.materials[ts[0]]};
-    else if (m.materials[ts[0]] != m.materials[ts[1]]) mats = {m.materials[ts[0]], m.materials[ts[1]]};
-    for (int32_t mat : mats)
-      for (int e = 0; e < 3; ++e) {
-        const int32_t a = k[e], b = k[(e + 1) % 3];
-        ++edgeUse[{mat, {std::min(a, b), std::max(a, b)}}];
-      }
-  }
-  int64_t open = 0;
-  for (const auto& [k, n] : edgeUse) open += n % 2;
-  return open;
-}
-
 struct Outcome {
   QualityResult q;
   CleaveResult r;
@@ -79,7 +50,7 @@ Outcome cleaveAndCheck(const std::shared_ptr<const LabelVolume>& vol, double cel
   SCOPED_TRACE(what);
   tetflow::test::expectValidClosedMesh(o.q);
   EXPECT_NEAR(o.q.volume, bg.boxVolume, 1e-9 * bg.boxVolume);
-  EXPECT_EQ(openMaterialSurfaceEdges(o.r.mesh), 0);
+  EXPECT_EQ(tetflow::test::openMaterialSurfaceEdges(o.r.mesh), 0);
   return o;
 }
 
@@ -249,7 +220,7 @@ TEST(Cleaver, SpheresIndicatorFunctions) {
     const QualityResult q = evaluateQuality(r.mesh, QualityParams{}, np);
     EXPECT_TRUE(q.valid);
     EXPECT_NEAR(q.volume, bg.boxVolume, 1e-9 * bg.boxVolume);
-    EXPECT_EQ(openMaterialSurfaceEdges(r.mesh), 0);
+    EXPECT_EQ(tetflow::test::openMaterialSurfaceEdges(r.mesh), 0);
     EXPECT_GE(q.minDihedral, kMinDihedralBound);
     for (const auto& m : r.materials) EXPECT_FALSE(m.lost()) << m.label;
   }
