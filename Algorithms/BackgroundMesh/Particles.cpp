@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/Quality/TetQuality.h"
 #include "BarnesHut.h"
 #include "TetgenDelaunay.h"
@@ -22,6 +23,8 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int64_t kMaxParticles = int64_t(1) << 28;
+// Peak bytes per particle of the whole kind (README "Reliability"; aims high).
+constexpr double kParticleBytes = 4000.0;
 
 std::string num(double x) {
   std::ostringstream o;
@@ -240,6 +243,12 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
     if (!(q < double(kMaxParticles)))
       throw InputError("the sizing field asks for " + num(q) + " particles (more than 2^28); raise min_cell_size, the "
                        "sizing field's min_size or particle_size_scale");
+    // Peak: TetGen's Delaunay structures and the mesh improvement's (about 6.5 tets per particle).
+    requireMemory(kParticleBytes * q, "the particle background (" + num(std::round(q)) + " particles)",
+                  [&](double avail) {
+                    return "use particle_size_scale >= " +
+                           num(roundUpForAdvice(p.size_scale * std::cbrt(kParticleBytes * q / avail)));
+                  });
   }
 
   // ---- boundary ------------------------------------------------------------------------------

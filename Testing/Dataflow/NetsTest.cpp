@@ -1,8 +1,12 @@
 // The example networks in Nets/: each loads, validates and is in canonical form (loading and
 // saving it gives back the same bytes, so opening and saving it unchanged never alters it).
+// With TETFLOW_REWRITE_NETS=1 in the environment the test rewrites every net in canonical form
+// first (after a module gains a parameter), so the comparison then holds.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
 #include "Algorithms/IO/FileUtil.h"
 #include "Dataflow/Executor.h"
@@ -20,6 +24,10 @@ TEST(Nets, EveryExampleNetworkIsCanonical) {
     ++count;
     const auto bytes = readFileBytes(e.path().string());
     const Network net = loadNetwork(e.path().string(), reg);
+    if (std::getenv("TETFLOW_REWRITE_NETS")) {
+      std::ofstream(e.path()) << saveNetworkToString(net);
+      continue;
+    }
     EXPECT_EQ(saveNetworkToString(net), std::string(bytes.begin(), bytes.end())) << e.path();
     // Every required input is connected.
     for (const auto& m : net.modules())
