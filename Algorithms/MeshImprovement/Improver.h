@@ -52,6 +52,8 @@ public:
   bool flip23(int32_t t, int face, std::vector<int32_t>& touched);
   bool collapseInto(int32_t t, std::vector<int32_t>& touched);
   bool splitEdge(int32_t t, std::vector<int32_t>& touched);
+  // Removes a cap tet on a curved boundary (see MeshImprovement.h, "peel").
+  bool peelCap(int32_t t, std::vector<int32_t>& touched);
 
 private:
   TetMesh& m_;

@@ -275,4 +275,42 @@ bool Improver::splitEdge(int32_t t, std::vector<int32_t>& touched) {
   return false;
 }
 
+bool Improver::peelCap(int32_t t, std::vector<int32_t>& touched) {
+  // A cap on a curved boundary: three faces on the boundary, none on an axis-aligned plane (a box
+  // face stays the domain), the fourth corner in no other tet, and the remaining face against a
+  // tet of the same material (so no component or contact goes with it). Removing it hands its
+  // volume to the outside, within the material's volume budget.
+  const Tet q = m_.tets[size_t(t)];
+  int inner = -1, innerCount = 0;
+  for (int f = 0; f < 4; ++f)
+    if (oppositeTet(t, f) >= 0) {
+      inner = f;
+      ++innerCount;
+    }
+  if (innerCount != 1) return false;
+  const int32_t apex = q[size_t(inner)];
+  std::vector<int32_t> star;
+  starOf(apex, star);
+  if (star.size() != 1) return false;
+  const int32_t mat = m_.materials[size_t(t)];
+  if (m_.materials[size_t(oppositeTet(t, inner))] != mat) return false;
+  for (int f = 0; f < 4; ++f) {
+    if (f == inner) continue;
+    const Vec3 &a = m_.points[size_t(q[size_t(kTetFaceVertices[f][0])])], &b = m_.points[size_t(q[size_t(kTetFaceVertices[f][1])])],
+               &c = m_.points[size_t(q[size_t(kTetFaceVertices[f][2])])];
+    const Vec3 n = cross(b - a, c - a);
+    for (int ax = 0; ax < 3; ++ax)
+      if (std::abs(n[size_t(ax)]) >= (1.0 - 1e-12) * norm(n)) return false;
+  }
+  const size_t l = labelIndex(mat);
+  const double vol = signedTetVolume(m_.points[size_t(q[0])], m_.points[size_t(q[1])], m_.points[size_t(q[2])],
+                                     m_.points[size_t(q[3])]);
+  if (std::abs(change_[l] - vol) > budget_[l]) return false;
+  change_[l] -= vol;
+  killTet(t);
+  (void)touched; // nothing created: the tet's neighbour keeps its score
+  ++st_.capsRemoved;
+  return true;
+}
+
 } // namespace tetflow::improve_detail

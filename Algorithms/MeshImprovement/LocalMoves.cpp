@@ -39,6 +39,18 @@ uint8_t axisAlignedBits(const std::vector<Vec3>& normals) {
   return bits;
 }
 
+// A boundary patch around a vertex is smooth when every face's normal is within
+// kSmoothBoundaryDeg of the patch's mean normal (a box edge or corner is not: 45 degrees or more).
+constexpr double kSmoothBoundaryDeg = 30.0;
+bool smoothBoundary(const std::vector<Vec3>& faces, const Vec3& sum) {
+  const double ns = norm(sum);
+  if (faces.size() < 2 || !(ns > 0)) return false;
+  const double c = std::cos(kSmoothBoundaryDeg * 3.14159265358979323846 / 180.0);
+  for (const Vec3& n : faces)
+    if (dot(n, sum) < c * norm(n) * ns) return false;
+  return true;
+}
+
 } // namespace
 
 Constraint Improver::classify(int32_t v, const LocalStar& s) const {
@@ -66,6 +78,8 @@ Constraint Improver::classify(int32_t v, const LocalStar& s) const {
   }
   std::sort(faces.begin(), faces.end(), [](const FaceUse& x, const FaceUse& y) { return x.others < y.others; });
   std::vector<Vec3> boundary; // distinct boundary normals
+  std::vector<Vec3> boundaryFaces; // every boundary face's area normal
+  Vec3 boundarySum{0, 0, 0};
   // Interface surfaces: per label pair, the summed area normal (oriented out of the lower label).
   std::vector<std::pair<std::array<int32_t, 2>, Vec3>> surfaces;
   for (size_t i = 0; i < faces.size();) {
@@ -73,6 +87,8 @@ Constraint Improver::classify(int32_t v, const LocalStar& s) const {
     while (j < faces.size() && faces[j].others == faces[i].others) ++j;
     if (j - i == 1) {
       addDirection(boundary, faces[i].areaNormal);
+      boundaryFaces.push_back(faces[i].areaNormal);
+      boundarySum = boundarySum + faces[i].areaNormal;
     } else if (j - i == 2) {
       const int32_t la = s.mats[faces[i].tet], lb = s.mats[faces[i + 1].tet];
       if (la != lb) {
@@ -115,6 +131,20 @@ Constraint Improver::classify(int32_t v, const LocalStar& s) const {
     } else if (km == 2 && surfaces.size() == 1) {
       const Vec3 d = cross(boundary[0], surfaces[0].second);
       if (usable(d) && norm(d) > 1e-6 * norm(boundary[0]) * norm(surfaces[0].second)) {
+        c.dof = 1;
+        c.dir = unit(d);
+      }
+    }
+  } else if (smoothBoundary(boundaryFaces, boundarySum)) {
+    // A curved but smooth boundary (a stripped exterior): it is a surface between the material(s)
+    // and the outside like any interface, so the vertex slides in its mean tangent plane (one
+    // material) or along its curve with the one interface (two), under the same volume budget.
+    if (km == 1) {
+      c.dof = 2;
+      c.dir = unit(boundarySum);
+    } else if (km == 2 && surfaces.size() == 1) {
+      const Vec3 d = cross(boundarySum, surfaces[0].second);
+      if (usable(d) && norm(d) > 1e-6 * norm(boundarySum) * norm(surfaces[0].second)) {
         c.dof = 1;
         c.dir = unit(d);
       }

@@ -224,6 +224,7 @@ bool Improver::improveTet(int32_t t, std::vector<int32_t>& touched) {
       if (score(m_.tets[size_t(t)]) >= goal_) return true;
     }
   }
+  if (p_.peel && peelCap(t, touched)) return true;
   if (p_.flip) {
     const Tet q = m_.tets[size_t(t)];
     for (const auto& [i, j] : kTetEdges)
@@ -424,6 +425,7 @@ void writeImproveReport(const ImproveStats& s, const ImproveParams& p, Report& r
   rep.set("improve_interface_flips", s.interfaceFlips);
   rep.set("improve_flips23", s.flips23);
   rep.set("improve_collapses", s.collapses);
+  rep.set("improve_caps_removed", s.capsRemoved);
   rep.set("improve_insertions", s.insertions);
   rep.set("improve_passes", int64_t(s.passes));
   rep.set("improve_max_volume_change_percent", s.maxVolumeChangePercent());

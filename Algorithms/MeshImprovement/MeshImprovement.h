@@ -11,6 +11,9 @@
 // For each, these operations are tried in order until one raises the worst score of the tets it
 // replaces (or, for smoothing, of the moved vertex's tets):
 //   smooth    each vertex of the tet moves (pattern search) to maximise the worst score of its tets;
+//   peel      a cap on a curved boundary (three faces on it, none on an axis-aligned plane, its
+//             fourth corner in no other tet, its last face against its own material) is removed:
+//             its volume goes to the outside, counted in the volume budget below;
 //   flip      edge removal: the tets around one of its edges, all of one material and closing a
 //             ring of 3..kMaxRing tets, are replaced by the best triangulation of the ring (dynamic
 //             programming over the ring polygon; a ring of 3 is the 3-2 flip); 2-3 flip: the tet
@@ -33,12 +36,17 @@
 //     edge split halves tets in place: no material's region changes at all; an interface edge
 //     removal moves one tet's worth of volume across a two-material interface (budgeted) and keeps
 //     both materials' tets around the edge (each arc keeps at least one triangle's pair of tets);
+//     a peeled cap leaves its material (budgeted) and hangs on a face of its own material only, so
+//     no component or contact goes with it;
 //   - a vertex moves only as its surroundings allow: inside one material freely; on a surface
 //     between two labels (the outside counts as a label) in its tangent plane; on a curve where
 //     three labels meet along the curve; where four or more labels meet, or at a corner of the
 //     boundary, not at all. On a planar surface (a box face) or a straight curve (a box edge) the
-//     move keeps the vertex on it exactly; on a curved boundary (a stripped exterior) the vertex
-//     stays. Elsewhere a tangent move changes the materials' volumes to second order: each move is
+//     move keeps the vertex on it exactly. A curved boundary (a stripped exterior) is a surface
+//     against the outside: where it is smooth (every boundary face at the vertex within 30 degrees
+//     of their mean normal) the vertex moves in the mean tangent plane, or along the curve where
+//     it meets one interface; at sharper creases it stays. Elsewhere (interfaces, curved
+//     boundaries) a tangent move changes the materials' volumes to second order: each move is
 //     accepted only while every material's net volume change stays within max_volume_change
 //     percent of its volume, and a constrained vertex moves at most 10 % of its longest edge.
 //   - no operation ever leaves a tet with a score below the worst it replaced, nor an inverted or
@@ -66,7 +74,7 @@ struct ImproveParams {
   double goal_margin = 1.0;        // tets are worked on up to min_angle + goal_margin [deg]
   double max_volume_change = 0.05; // percent: net change allowed per material
   int passes = 6;                  // passes over the remaining bad tets
-  bool smooth = true, flip = true, collapse = true, insert = true;
+  bool smooth = true, flip = true, collapse = true, insert = true, peel = true;
 };
 
 struct ImproveTet {  // a tet that still misses the target after improvement
@@ -86,6 +94,7 @@ struct ImproveStats {
   double minBefore = 0.0, maxBefore = 0.0, minAfter = 0.0, maxAfter = 0.0; // dihedral [deg]
   int64_t belowMinBefore = 0, aboveMaxBefore = 0, belowMinAfter = 0, aboveMaxAfter = 0;
   int64_t smoothed = 0, edgeRemovals = 0, interfaceFlips = 0, flips23 = 0, collapses = 0, insertions = 0;
+  int64_t capsRemoved = 0; // "peel"
   int passes = 0;
   std::vector<ImproveMaterial> materials; // ascending label
   std::vector<ImproveTet> unfixed;        // the worst remaining (at most 20), worst first

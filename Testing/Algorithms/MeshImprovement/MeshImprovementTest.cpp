@@ -9,6 +9,7 @@
 #include <set>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
+#include "Algorithms/BackgroundMesh/TetgenDelaunay.h"
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/IO/VolumeIO.h"
 #include "Algorithms/MeshImprovement/MeshImprovement.h"
@@ -193,6 +194,7 @@ TEST(MeshImprovement, EachOperationAloneKeepsLabelsAndNeverLowersTheWorstTet) {
     ip.flip = std::string(op) == "flip";
     ip.collapse = std::string(op) == "collapse";
     ip.insert = std::string(op) == "insert";
+    ip.peel = false;
     ip.min_angle = 15; // a harder target, so that every operation has work
     for (int kind = 0; kind < 4; ++kind)
       for (unsigned seed = 1; seed <= 2; ++seed) {
@@ -209,6 +211,7 @@ TEST(MeshImprovement, EachOperationAloneKeepsLabelsAndNeverLowersTheWorstTet) {
         if (!ip.flip) { EXPECT_EQ(c.stats.edgeRemovals + c.stats.interfaceFlips + c.stats.flips23, 0) << what; }
         if (!ip.collapse) { EXPECT_EQ(c.stats.collapses, 0) << what; }
         if (!ip.insert) { EXPECT_EQ(c.stats.insertions, 0) << what; }
+        EXPECT_EQ(c.stats.capsRemoved, 0) << what;
         used["interface flips (with flip)"] += c.stats.interfaceFlips;
       }
   }
@@ -356,4 +359,78 @@ TEST(MeshImprovement, CancellationThrowsCancelled) {
   NullProgress cancelled;
   cancelled.requestCancel();
   EXPECT_THROW(improveMesh(m, ImproveParams{}, cancelled), Cancelled);
+}
+
+TEST(MeshImprovement, CurvedBoundaryCapsArePeeledAndBoundaryVerticesSlideOnTheSurface) {
+  // A ball (the Delaunay tets of 200 points on its sphere and 600 inside, one material) with flat
+  // caps glued onto four of its boundary faces: the kind of tet a stripped exterior leaves.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Vec3> pts;
+  const double R = 10;
+  for (int i = 0; i < 200; ++i) { // Fibonacci sphere
+    const double z = 1 - 2 * (i + 0.5) / 200, r = std::sqrt(1 - z * z), phi = i * 2.399963229728653;
+    pts.push_back({R * r * std::cos(phi), R * r * std::sin(phi), R * z});
+  }
+  while (pts.size() < 800) {
+    const Vec3 p{R * u(rng), R * u(rng), R * u(rng)};
+    if (norm(p) < 0.9 * R) pts.push_back(p);
+  }
+  TetMesh m;
+  m.tets = tetgenDelaunay(pts, "");
+  m.points = pts;
+  m.materials.assign(m.tets.size(), 3);
+  // Boundary faces, outward.
+  std::map<std::array<int32_t, 3>, std::pair<int, std::array<int32_t, 3>>> faces;
+  for (const auto& t : m.tets)
+    for (int k = 0; k < 4; ++k) {
+      std::array<int32_t, 3> f{t[(k + 1) % 4], t[(k + 2) % 4], t[(k + 3) % 4]}, s = f;
+      std::sort(s.begin(), s.end());
+      auto& e = faces[s];
+      ++e.first;
+      e.second = f;
+    }
+  int caps = 0;
+  for (const auto& [s, e] : faces) {
+    if (e.first != 1 || caps == 4) continue;
+    const auto f = e.second;
+    const Vec3 c = (1.0 / 3) * (m.points[f[0]] + m.points[f[1]] + m.points[f[2]]);
+    Vec3 n = cross(m.points[f[1]] - m.points[f[0]], m.points[f[2]] - m.points[f[0]]);
+    if (dot(n, c) < 0) n = -1.0 * n;
+    const Vec3 apex = c + (0.02 / norm(n)) * n; // 1 % of the face's size above it: a flat cap
+    m.points.push_back(apex);
+    TetMesh::Tet q{f[0], f[1], f[2], int32_t(m.points.size() - 1)};
+    if (signedTetVolume(m.points[q[0]], m.points[q[1]], m.points[q[2]], m.points[q[3]]) < 0) std::swap(q[0], q[1]);
+    m.tets.push_back(q);
+    m.materials.push_back(3);
+    ++caps;
+  }
+  ASSERT_EQ(caps, 4);
+  NullProgress np;
+  const double volBefore = evaluateQuality(m, QualityParams{}, np).volume;
+  const ImproveStats st = improveMesh(m, ImproveParams{}, np);
+  const QualityResult q = evaluateQuality(m, QualityParams{}, np);
+  tetflow::test::expectValidClosedMesh(q);
+  EXPECT_GE(st.capsRemoved, 4);
+  EXPECT_LE(std::abs(q.volume - volBefore), 0.0005 * volBefore + 1e-12);
+  EXPECT_GT(q.minDihedral, st.minBefore);
+  std::printf("  ball: [%.2f, %.2f] -> [%.2f, %.2f], %lld caps removed, %lld smoothed, %lld left\n", st.minBefore,
+              st.maxBefore, q.minDihedral, q.maxDihedral, (long long)st.capsRemoved, (long long)st.smoothed,
+              (long long)st.unfixedCount);
+  // Vertices on the sphere slid in their tangent planes: every boundary vertex stays within
+  // 1 % of the radius (a tangent move of at most 10 % of an edge leaves the sphere by about its
+  // square over twice the radius).
+  std::map<std::array<int32_t, 3>, int> count;
+  for (const auto& t : m.tets)
+    for (int k = 0; k < 4; ++k) {
+      std::array<int32_t, 3> f{t[(k + 1) % 4], t[(k + 2) % 4], t[(k + 3) % 4]};
+      std::sort(f.begin(), f.end());
+      ++count[f];
+    }
+  double worst = 0;
+  for (const auto& [f, n] : count)
+    if (n == 1)
+      for (int32_t v : f) worst = std::max(worst, std::abs(norm(m.points[size_t(v)]) - R));
+  EXPECT_LT(worst, 0.01 * R);
+  EXPECT_GT(st.smoothed, 0);
 }
