@@ -95,6 +95,51 @@ TEST(CleaveMeshModule, OctreeBackgroundFromASizingField) {
   EXPECT_NE(msgs[0].find("ignores the sizing field"), std::string::npos) << msgs[0];
 }
 
+TEST(CleaveMeshModule, ParticleBackgroundFromASizingField) {
+  Pipeline p("two_spheres", 1.5);
+  p.net.addModule("ComputeSizingField", "sf");
+  p.net.setParameterText("sf", "min_size", "1.5");
+  p.net.connect("p", 0, "sf", 0);
+  p.net.setParameterText("bg", "kind", "particles");
+  // Without its sizing field: an input error naming the port and the fix.
+  auto sum = p.exec.execute(p.net);
+  ASSERT_FALSE(sum.success);
+  EXPECT_NE(p.exec.state("bg")->error.find("kind particles needs a sizing field on input port 1 'sizing'"),
+            std::string::npos)
+      << p.exec.state("bg")->error;
+  // Connected: an unstructured background, cleaved with per-vertex alphas into a valid mesh
+  // within the improvement's targets; the particle figures are reported and logged.
+  p.net.connect("sf", 0, "bg", 1);
+  p.net.setParameterText("q", "require_min_dihedral", "10");
+  p.net.setParameterText("q", "require_max_dihedral", "160");
+  sum = p.exec.execute(p.net);
+  ASSERT_TRUE(sum.success) << p.exec.state("bg")->error << p.exec.state("cl")->error << p.exec.state("q")->error;
+  const Report& bg = p.report("bg");
+  EXPECT_GT(bg.number("particles_interior"), 100);
+  EXPECT_GT(bg.number("particle_iterations"), 0);
+  EXPECT_GE(bg.number("min_dihedral"), 15.0);
+  EXPECT_LE(bg.number("max_dihedral"), 150.0);
+  EXPECT_NE(bg.find("particle_seconds_per_iteration"), nullptr);
+  std::vector<std::string> stages;
+  for (const auto& s : p.exec.state("bg")->stages) stages.push_back(s.name);
+  for (const char* s : {"boundary", "potential", "relax", "delaunay", "improve"})
+    EXPECT_NE(std::find(stages.begin(), stages.end(), s), stages.end()) << s;
+  ASSERT_EQ(p.exec.state("bg")->messages.size(), 1u);
+  EXPECT_NE(p.exec.state("bg")->messages[0].find("iterations"), std::string::npos);
+  EXPECT_EQ(std::get<std::string>(*p.report("cl").find("background")), "unstructured");
+  EXPECT_EQ(std::get<bool>(*p.report("q").find("valid")), true);
+  EXPECT_EQ(std::get<std::string>(*p.report("cl").find("materials_lost")), "none");
+  // A parameter out of range names itself.
+  p.net.setParameterText("bg", "particle_theta", "0.2");
+  ASSERT_TRUE(p.exec.execute(p.net).success);
+  try {
+    p.net.setParameterText("bg", "particle_theta", "3");
+    ADD_FAILURE() << "particle_theta 3 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("particle_theta"), std::string::npos) << e.what();
+  }
+}
+
 TEST(CleaveMeshModule, CertificateListsTheLostBlobAndItsThresholdsFailTheModule) {
   test::TempDir dir;
   Pipeline p("blob", 6.0);
