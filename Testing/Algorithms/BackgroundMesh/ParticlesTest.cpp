@@ -174,6 +174,20 @@ TEST(Particles, RandomFieldsAndGridsStayValid) {
   }
 }
 
+TEST(Particles, ThinAndTinyBoxesStayValid) {
+  // One voxel, a one-slice grid, a thin rod, and a field far larger than the box: corners, edges
+  // and faces only, or nearly so.
+  for (const auto& [dims, size] : std::vector<std::pair<std::array<int64_t, 3>, double>>{
+           {{1, 1, 1}, 2.0}, {{12, 10, 1}, 1.5}, {{30, 2, 2}, 1.0}, {{8, 8, 8}, 100.0}}) {
+    GridGeometry g;
+    g.dims = dims;
+    SCOPED_TRACE(::testing::Message() << dims[0] << "x" << dims[1] << "x" << dims[2] << " at " << size);
+    NullProgress np;
+    const ParticleMeshResult r = generateParticleMesh(g, fieldOn(g, [&](const Vec3&) { return size; }), ParticleParams{}, np);
+    expectTiles(r, g, 0.0);
+  }
+}
+
 TEST(Particles, SameMeshForAnyThreadCount) {
   GridGeometry g;
   g.dims = {14, 12, 10};
