@@ -130,9 +130,11 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   m.name = "GenerateBackgroundMesh";
   m.category = "Meshing";
   m.description = "Builds the background mesh for cleaving, covering exactly the volume's box (plus "
-                  "padding) with tets bisected at the box faces so the mesh ends on the box: a regular "
-                  "body-centred cubic lattice (regular_bcc), or a BCC lattice graded on a balanced "
-                  "octree by a sizing field (octree_bcc).";
+                  "padding): a regular body-centred cubic lattice (regular_bcc) or a BCC lattice graded "
+                  "on a balanced octree by a sizing field (octree_bcc), both with tets bisected at the "
+                  "box faces so the mesh ends on the box; or an unstructured mesh of electrostatic "
+                  "particles spaced by the sizing field, box corners, edges and faces first, "
+                  "tetrahedralized by TetGen and freed of slivers (particles, seed §5.4).";
   m.inputs = {{"volume", {PortType::LabelVolume, PortType::Materials}, "gives the box to cover"},
               {"sizing", {PortType::ScalarVolume}, "element size field in mm (ComputeSizingField); needed by octree_bcc and particles", true}};
   m.outputs = {{"mesh", {PortType::TetMesh}, "background tet mesh"}};

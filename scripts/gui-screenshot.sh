@@ -30,3 +30,6 @@ sed -e 's/<var name="blend_sigma" val="{0.5}"/<var name="blend_sigma" val="{1}"/
     "$here/Nets/default.srn" > "$out/old-default.srn"
 shot "$out/old-default.srn" --select m4 --color certificate_flags --clip y:0.5 --show-report \
   --screenshot "$here/docs/tetflow-gui-certificate.png"
+# The particle background of the unstructured adaptive net (GenerateBackgroundMesh), clipped.
+shot "$here/Nets/adaptive_particles.srn" --select m2 --clip y:0.5 --show-report \
+  --screenshot "$here/docs/tetflow-gui-particles.png"
