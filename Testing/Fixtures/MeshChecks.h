@@ -25,8 +25,8 @@ inline void expectValidClosedMesh(const QualityResult& q) {
 
 inline double triangleArea(const Vec3& a, const Vec3& b, const Vec3& c) { return 0.5 * norm(cross(b - a, c - a)); }
 
-// Total area of the faces used by one tet only.
-inline double boundaryArea(const TetMesh& m) {
+// The faces used by one tet only (vertex ids sorted).
+inline std::vector<std::array<int32_t, 3>> boundaryFaces(const TetMesh& m) {
   std::map<std::array<int32_t, 3>, int> count;
   for (const auto& t : m.tets)
     for (int k = 0; k < 4; ++k) {
@@ -34,9 +34,17 @@ inline double boundaryArea(const TetMesh& m) {
       std::sort(s.begin(), s.end());
       ++count[s];
     }
-  double area = 0;
+  std::vector<std::array<int32_t, 3>> out;
   for (const auto& [s, c] : count)
-    if (c == 1) area += triangleArea(m.points[size_t(s[0])], m.points[size_t(s[1])], m.points[size_t(s[2])]);
+    if (c == 1) out.push_back(s);
+  return out;
+}
+
+// Their total area.
+inline double boundaryArea(const TetMesh& m) {
+  double area = 0;
+  for (const auto& s : boundaryFaces(m))
+    area += triangleArea(m.points[size_t(s[0])], m.points[size_t(s[1])], m.points[size_t(s[2])]);
   return area;
 }
 

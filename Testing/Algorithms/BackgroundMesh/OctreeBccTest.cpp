@@ -13,27 +13,15 @@
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/MeshQuality.h"
+#include "Fixtures/AnalyticFields.h"
 #include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
+using tetflow::test::boxLengths;
+using tetflow::test::fieldOn;
 
 namespace {
-
-ScalarVolume fieldOn(const GridGeometry& g, const std::function<float(const Vec3&)>& f) {
-  ScalarVolume v;
-  v.allocate(g);
-  for (int64_t k = 0; k < g.dims[2]; ++k)
-    for (int64_t j = 0; j < g.dims[1]; ++j)
-      for (int64_t i = 0; i < g.dims[0]; ++i) v.at(i, j, k) = f(g.indexToPhysical(double(i), double(j), double(k)));
-  return v;
-}
-
-// Box of the grid's voxel cells in its own frame: lengths per axis.
-Vec3 boxLengths(const GridGeometry& g, double pad) {
-  return {double(g.dims[0]) * g.spacing[0] + 2 * pad, double(g.dims[1]) * g.spacing[1] + 2 * pad,
-          double(g.dims[2]) * g.spacing[2] + 2 * pad};
-}
 
 // Valid, conforming, tiles the box: positive tets, every face in one or two tets, the boundary
 // faces closed and their area equal to the box's surface (a gap or a T-junction inside the box

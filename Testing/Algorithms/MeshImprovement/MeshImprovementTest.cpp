@@ -420,17 +420,9 @@ TEST(MeshImprovement, CurvedBoundaryCapsArePeeledAndBoundaryVerticesSlideOnTheSu
   // Vertices on the sphere slid in their tangent planes: every boundary vertex stays within
   // 1 % of the radius (a tangent move of at most 10 % of an edge leaves the sphere by about its
   // square over twice the radius).
-  std::map<std::array<int32_t, 3>, int> count;
-  for (const auto& t : m.tets)
-    for (int k = 0; k < 4; ++k) {
-      std::array<int32_t, 3> f{t[(k + 1) % 4], t[(k + 2) % 4], t[(k + 3) % 4]};
-      std::sort(f.begin(), f.end());
-      ++count[f];
-    }
   double worst = 0;
-  for (const auto& [f, n] : count)
-    if (n == 1)
-      for (int32_t v : f) worst = std::max(worst, std::abs(norm(m.points[size_t(v)]) - R));
+  for (const auto& f : tetflow::test::boundaryFaces(m))
+    for (int32_t v : f) worst = std::max(worst, std::abs(norm(m.points[size_t(v)]) - R));
   EXPECT_LT(worst, 0.01 * R);
   EXPECT_GT(st.smoothed, 0);
 }
