@@ -83,10 +83,10 @@ public:
       ctx.log("particles: " + std::to_string(pm.stats.iterations) + " iterations (" +
               formatReportValue(ReportValue(pm.stats.secondsPerIteration)) + " s each, stopped by " +
               pm.stats.stopReason + "); Delaunay dihedral angles [" +
-              formatReportValue(ReportValue(pm.stats.delaunayMinDihedral)) + ", " +
-              formatReportValue(ReportValue(pm.stats.delaunayMaxDihedral)) + "] -> [" +
-              formatReportValue(ReportValue(pm.stats.minDihedral)) + ", " +
-              formatReportValue(ReportValue(pm.stats.maxDihedral)) + "] after sliver removal");
+              formatReportValue(ReportValue(pm.stats.improve.minBefore)) + ", " +
+              formatReportValue(ReportValue(pm.stats.improve.maxBefore)) + "] -> [" +
+              formatReportValue(ReportValue(pm.stats.improve.minAfter)) + ", " +
+              formatReportValue(ReportValue(pm.stats.improve.maxAfter)) + "] after sliver removal");
     } else if (kind == "octree_bcc") {
       if (!haveSizing)
         throw InputError("kind octree_bcc needs a sizing field on input port 1 'sizing': connect "

@@ -1,6 +1,8 @@
 #include "BccLattice.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <iomanip>
 #include <sstream>
 
@@ -8,6 +10,27 @@
 #include "Algorithms/Core/MemoryBudget.h"
 
 namespace tetflow {
+
+SizeRange checkSizingField(const ScalarVolume& sizing) {
+  sizing.grid.validate("background mesh: sizing field");
+  if (sizing.data.size() != size_t(sizing.grid.voxelCount()))
+    throw InputError("background mesh: sizing field has the wrong number of values");
+  SizeRange r{std::numeric_limits<float>::max(), 0.0f};
+  for (size_t i = 0; i < sizing.data.size(); ++i) {
+    const float s = sizing.data[i];
+    if (!(s > 0.0f) || !std::isfinite(s)) {
+      const int64_t nx = sizing.grid.dims[0], ny = sizing.grid.dims[1];
+      std::ostringstream m;
+      m << "sizing field value " << s << " at sample (" << int64_t(i) % nx << ", " << (int64_t(i) / nx) % ny
+        << ", " << int64_t(i) / (nx * ny) << ") is not a positive size in mm; compute the field with "
+        << "ComputeSizingField or clamp it with min_size";
+      throw InputError(m.str());
+    }
+    r.min = std::min(r.min, s);
+    r.max = std::max(r.max, s);
+  }
+  return r;
+}
 
 BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, Progress& progress) {
   grid.validate("background mesh: volume");

@@ -42,6 +42,14 @@ struct BackgroundMesh {
   double boxVolume = 0.0; // mm^3
 };
 
+// The sizing field given to a graded background (octree_bcc, particles): checks its grid and that
+// every value is a finite positive size (InputError naming the first sample that is not, and the
+// fix), and returns its smallest and largest value (mm).
+struct SizeRange {
+  float min = 0.0f, max = 0.0f;
+};
+SizeRange checkSizingField(const ScalarVolume& sizing);
+
 // Throws InputError naming the parameter when cell_size/padding are invalid or the lattice
 // would exceed 2^31 vertices.
 BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& params, Progress& progress);

@@ -166,28 +166,13 @@ Vec3 SizingOctree::halfToLocal(int64_t x, int64_t y, int64_t z) const {
 SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& p,
                                OctreeBccStats& st, Progress& progress) {
   grid.validate("background mesh: volume");
-  sizing.grid.validate("background mesh: sizing field");
-  if (sizing.data.size() != size_t(sizing.grid.voxelCount()))
-    throw InputError("background mesh: sizing field has the wrong number of values");
   if (!(p.padding >= 0.0) || !std::isfinite(p.padding)) throw InputError("padding must be >= 0 mm");
   if (!(p.min_cell_size >= 0.0) || !std::isfinite(p.min_cell_size))
     throw InputError("min_cell_size must be >= 0 mm (0 = the sizing field's minimum)");
   if (!(p.max_cell_size >= 0.0) || !std::isfinite(p.max_cell_size))
     throw InputError("max_cell_size must be >= 0 mm (0 = the sizing field's maximum)");
-  float smin = std::numeric_limits<float>::max(), smax = 0.0f;
-  for (size_t i = 0; i < sizing.data.size(); ++i) {
-    const float s = sizing.data[i];
-    if (!(s > 0.0f) || !std::isfinite(s)) {
-      const int64_t nx = sizing.grid.dims[0], ny = sizing.grid.dims[1];
-      std::ostringstream m;
-      m << "sizing field value " << s << " at sample (" << int64_t(i) % nx << ", " << (int64_t(i) / nx) % ny
-        << ", " << int64_t(i) / (nx * ny) << ") is not a positive size in mm; compute the field with "
-        << "ComputeSizingField or clamp it with min_size";
-      throw InputError(m.str());
-    }
-    smin = std::min(smin, s);
-    smax = std::max(smax, s);
-  }
+  const SizeRange range = checkSizingField(sizing);
+  const float smin = range.min, smax = range.max;
   // A defaulted bound follows the one that was given (min_size 4 with max_cell_size 2 asks for a
   // uniform 2 mm lattice, not for an error about a parameter left at 0).
   double minCell = p.min_cell_size > 0 ? p.min_cell_size : double(smin);

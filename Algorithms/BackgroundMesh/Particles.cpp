@@ -9,11 +9,9 @@
 #include <limits>
 #include <random>
 #include <sstream>
-#include <unordered_map>
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/MemoryBudget.h"
-#include "Algorithms/Quality/TetQuality.h"
 #include "BarnesHut.h"
 #include "TetgenDelaunay.h"
 
@@ -142,30 +140,11 @@ std::vector<int64_t> diffuseCounts(const std::vector<double>& expected) {
   return c;
 }
 
-double tetMinMax(const TetMesh& m, double& mx) {
-  double lo = 180, hi = 0;
-#pragma omp parallel for schedule(static) reduction(min : lo) reduction(max : hi)
-  for (int64_t t = 0; t < int64_t(m.tets.size()); ++t) {
-    const auto& q = m.tets[size_t(t)];
-    const auto a = dihedralAngles(m.points[size_t(q[0])], m.points[size_t(q[1])], m.points[size_t(q[2])],
-                                  m.points[size_t(q[3])]);
-    for (double x : a) {
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    }
-  }
-  mx = hi;
-  return lo;
-}
-
 } // namespace
 
 ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVolume& sizing, const ParticleParams& p,
                                         Progress& progress) {
   grid.validate("background mesh: volume");
-  sizing.grid.validate("background mesh: sizing field");
-  if (sizing.data.size() != size_t(sizing.grid.voxelCount()))
-    throw InputError("background mesh: sizing field has the wrong number of values");
   auto need = [](bool ok, const std::string& what) {
     if (!ok) throw InputError(what);
   };
@@ -178,17 +157,7 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
   need(p.theta >= 0 && p.theta <= 1.5, "particle_theta must be in [0, 1.5]");
   need(p.move_tolerance > 0 && std::isfinite(p.move_tolerance), "particle move tolerance must be > 0");
   need(p.poisson_samples >= 8 && p.poisson_samples <= 512, "particle poisson_samples must be in [8, 512]");
-  for (size_t i = 0; i < sizing.data.size(); ++i) {
-    const float s = sizing.data[i];
-    if (!(s > 0.0f) || !std::isfinite(s)) {
-      const int64_t nx = sizing.grid.dims[0], ny = sizing.grid.dims[1];
-      std::ostringstream m;
-      m << "sizing field value " << s << " at sample (" << int64_t(i) % nx << ", " << (int64_t(i) / nx) % ny << ", "
-        << int64_t(i) / (nx * ny) << ") is not a positive size in mm; compute the field with "
-        << "ComputeSizingField or clamp it with min_size";
-      throw InputError(m.str());
-    }
-  }
+  const SizeRange range = checkSizingField(sizing);
 
   ParticleMeshResult res;
   ParticleStats& st = res.stats;
@@ -201,15 +170,10 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
   }
   const double longest = std::max({len[0], len[1], len[2]});
 
-  // Smallest spacing over the sizing samples that lie in the box (an estimate for the grid below).
-  double lminGuess = std::numeric_limits<double>::infinity();
-  {
-    float smin = std::numeric_limits<float>::max();
-    for (float v : sizing.data) smin = std::min(smin, v);
-    lminGuess = double(smin) * p.size_scale;
-    if (p.min_size > 0) lminGuess = std::max(lminGuess, p.min_size);
-    if (p.max_size > 0) lminGuess = std::min(lminGuess, p.max_size);
-  }
+  // Smallest spacing the field asks for anywhere (an estimate for the grid below).
+  double lminGuess = double(range.min) * p.size_scale;
+  if (p.min_size > 0) lminGuess = std::max(lminGuess, p.min_size);
+  if (p.max_size > 0) lminGuess = std::min(lminGuess, p.max_size);
   // Poisson / seeding grid.
   NodeGrid ng;
   {
@@ -229,15 +193,19 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
     for (int64_t j = 0; j <= ng.n[1]; ++j)
       for (int64_t i = 0; i <= ng.n[0]; ++i) lNode[size_t(ng.id(i, j, k))] = L.at(ng.node(i, j, k));
   double lmin = *std::min_element(lNode.begin(), lNode.end());
+  // Background charge of each node (trapezoid weight x rho, before the neutralising scale); their
+  // sum is the ideal particle count, known before anything is allocated for it.
+  std::vector<double> nodeCharge(static_cast<size_t>(nodes));
   {
-    // The ideal particle count, before anything is allocated for it.
     double q = 0;
     for (int64_t k = 0; k <= ng.n[2]; ++k)
       for (int64_t j = 0; j <= ng.n[1]; ++j)
         for (int64_t i = 0; i <= ng.n[0]; ++i) {
+          const int64_t id = ng.id(i, j, k);
           const double w = (i == 0 || i == ng.n[0] ? 0.5 : 1.0) * (j == 0 || j == ng.n[1] ? 0.5 : 1.0) *
                            (k == 0 || k == ng.n[2] ? 0.5 : 1.0) * ng.h[0] * ng.h[1] * ng.h[2];
-          q += w * std::sqrt(2.0) / std::pow(lNode[size_t(ng.id(i, j, k))], 3);
+          nodeCharge[size_t(id)] = w * std::sqrt(2.0) / std::pow(lNode[size_t(id)], 3);
+          q += nodeCharge[size_t(id)];
         }
     st.backgroundCharge = q;
     if (!(q < double(kMaxParticles)))
@@ -433,20 +401,12 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
   std::vector<Vec3> efield(size_t(nodes), Vec3{0, 0, 0});
   double scale = 0;
   {
-    std::vector<double> qn(static_cast<size_t>(nodes));
     std::vector<Vec3> pn(static_cast<size_t>(nodes));
-    double sum = 0;
     for (int64_t k = 0; k <= ng.n[2]; ++k)
       for (int64_t j = 0; j <= ng.n[1]; ++j)
-        for (int64_t i = 0; i <= ng.n[0]; ++i) {
-          const int64_t id = ng.id(i, j, k);
-          const double w = (i == 0 || i == ng.n[0] ? 0.5 : 1.0) * (j == 0 || j == ng.n[1] ? 0.5 : 1.0) *
-                           (k == 0 || k == ng.n[2] ? 0.5 : 1.0) * ng.h[0] * ng.h[1] * ng.h[2];
-          qn[size_t(id)] = w * std::sqrt(2.0) / std::pow(lNode[size_t(id)], 3);
-          pn[size_t(id)] = ng.node(i, j, k);
-          sum += qn[size_t(id)];
-        }
-    scale = sum > 0 ? qTotal / sum : 0.0;
+        for (int64_t i = 0; i <= ng.n[0]; ++i) pn[size_t(ng.id(i, j, k))] = ng.node(i, j, k);
+    scale = st.backgroundCharge > 0 ? qTotal / st.backgroundCharge : 0.0;
+    std::vector<double> qn = std::move(nodeCharge);
     for (double& q : qn) q *= scale;
     // Dirichlet values: free-space potential of the (negative) background charges.
     const BarnesHutTree tree(pn, qn);
@@ -653,15 +613,13 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
       throw ProcessingError("the Delaunay tets of the particles fill " + num(vol) + " mm^3 of the box's " + num(box) +
                             " mm^3 (" + std::to_string(flat) + " flat tets dropped)");
   }
-  st.delaunayMinDihedral = tetMinMax(mesh, st.delaunayMaxDihedral);
 
   // ---- slivers -------------------------------------------------------------------------------
   ImproveParams ip;
   ip.min_angle = p.min_angle;
   ip.max_angle = p.max_angle;
   ip.passes = p.improve_passes;
-  st.improve = improveMesh(mesh, ip, progress); // stage "improve"
-  st.minDihedral = tetMinMax(mesh, st.maxDihedral);
+  st.improve = improveMesh(mesh, ip, progress); // stage "improve"; it measures before and after
 
   // Spacing: mean edge length at each vertex over the target there.
   {
@@ -717,11 +675,11 @@ void reportParticleMesh(const ParticleStats& s, Report& r) {
   r.set("particle_energy_last", ReportValue(s.energyLast));
   r.set("particle_last_max_move", ReportValue(s.lastMaxMove));
   r.set("delaunay_tets", ReportValue(s.delaunayTets));
-  r.set("delaunay_min_dihedral", ReportValue(s.delaunayMinDihedral));
-  r.set("delaunay_max_dihedral", ReportValue(s.delaunayMaxDihedral));
+  r.set("delaunay_min_dihedral", ReportValue(s.improve.minBefore));
+  r.set("delaunay_max_dihedral", ReportValue(s.improve.maxBefore));
   r.set("sliver_unfixed", ReportValue(s.improve.unfixedCount));
-  r.set("min_dihedral", ReportValue(s.minDihedral));
-  r.set("max_dihedral", ReportValue(s.maxDihedral));
+  r.set("min_dihedral", ReportValue(s.improve.minAfter));
+  r.set("max_dihedral", ReportValue(s.improve.maxAfter));
   r.set("spacing_ratio_median", ReportValue(s.spacingMedian));
   r.set("spacing_ratio_p05", ReportValue(s.spacingP05));
   r.set("spacing_ratio_p95", ReportValue(s.spacingP95));

@@ -83,9 +83,9 @@ struct ParticleStats {
   double energyFirst = 0.0, energyLast = 0.0; // electrostatic energy (Gaussian units, mm^-1)
   double lastMaxMove = 0.0;       // largest move of the last iteration / l
   int64_t delaunayTets = 0, flatTets = 0;
-  double delaunayMinDihedral = 0.0, delaunayMaxDihedral = 0.0;
+  // Sliver removal; its minBefore / maxBefore are the Delaunay mesh's dihedral range, minAfter /
+  // maxAfter the result's.
   ImproveStats improve;
-  double minDihedral = 0.0, maxDihedral = 0.0; // of the result
   // Spacing: at every vertex, the mean length of its edges / l there.
   double spacingMedian = 0.0, spacingP05 = 0.0, spacingP95 = 0.0;
 };
