@@ -282,9 +282,11 @@ bool Improver::peelCap(int32_t t, std::vector<int32_t>& touched) {
   // volume to the outside, within the material's volume budget.
   const Tet q = m_.tets[size_t(t)];
   int inner = -1, innerCount = 0;
+  int32_t neighbour = -1;
   for (int f = 0; f < 4; ++f)
-    if (oppositeTet(t, f) >= 0) {
+    if (const int32_t o = oppositeTet(t, f); o >= 0) {
       inner = f;
+      neighbour = o;
       ++innerCount;
     }
   if (innerCount != 1) return false;
@@ -293,7 +295,7 @@ bool Improver::peelCap(int32_t t, std::vector<int32_t>& touched) {
   starOf(apex, star);
   if (star.size() != 1) return false;
   const int32_t mat = m_.materials[size_t(t)];
-  if (m_.materials[size_t(oppositeTet(t, inner))] != mat) return false;
+  if (m_.materials[size_t(neighbour)] != mat) return false;
   for (int f = 0; f < 4; ++f) {
     if (f == inner) continue;
     const Vec3 &a = m_.points[size_t(q[size_t(kTetFaceVertices[f][0])])], &b = m_.points[size_t(q[size_t(kTetFaceVertices[f][1])])],
