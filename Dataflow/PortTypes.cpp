@@ -10,7 +10,7 @@ constexpr std::pair<PortType, const char*> kPortNames[] = {
     {PortType::LabelVolume, "LabelVolume"}, {PortType::ScalarVolume, "ScalarVolume"},
     {PortType::Materials, "Materials"},     {PortType::TetMesh, "TetMesh"},
     {PortType::Matrix, "Matrix"},           {PortType::Vector, "Vector"},
-    {PortType::Report, "Report"}};
+    {PortType::Report, "Report"},           {PortType::DenseMatrix, "DenseMatrix"}};
 
 std::string gridSummary(const GridGeometry& g) {
   std::ostringstream s;
@@ -65,6 +65,14 @@ std::string MatrixData::summary() const {
   if (!value) return "Matrix: none";
   std::ostringstream s;
   s << "Matrix " << value->rows() << "x" << value->cols() << ", " << value->nonZeros() << " non-zeros";
+  return s.str();
+}
+
+template <>
+std::string DenseMatrixData::summary() const {
+  if (!value) return "DenseMatrix: none";
+  std::ostringstream s;
+  s << "DenseMatrix " << value->rows() << "x" << value->cols();
   return s.str();
 }
 

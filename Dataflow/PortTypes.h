@@ -1,6 +1,7 @@
 #pragma once
 // What travels on the wires (DESIGN §2). Every data object is immutable once sent and carries a
 // process-unique identity, so the executor can tell whether a module's inputs changed.
+#include <Eigen/Core>
 #include <Eigen/SparseCore>
 
 #include <atomic>
@@ -24,7 +25,8 @@ enum class PortType : int {
   TetMesh = 3,
   Matrix = 4,
   Vector = 5,
-  Report = 6
+  Report = 6,
+  DenseMatrix = 7
 };
 const char* portTypeName(PortType t);
 std::optional<PortType> portTypeFromName(const std::string& name);
@@ -65,12 +67,15 @@ using MaterialsData = DataOf<std::shared_ptr<const MaterialSet>, PortType::Mater
 // A sparse matrix (e.g. AssembleFEMPoisson's reduced stiffness matrix K, both triangles stored,
 // compressed, column-major); shared, immutable.
 using MatrixData = DataOf<std::shared_ptr<const Eigen::SparseMatrix<double>>, PortType::Matrix>;
+// A dense matrix (e.g. ComputeLeadField's lead field, electrodes x 3 sources); shared, immutable.
+using DenseMatrixData = DataOf<std::shared_ptr<const Eigen::MatrixXd>, PortType::DenseMatrix>;
 template <> std::string LabelVolumeData::summary() const;
 template <> std::string ScalarVolumeData::summary() const;
 template <> std::string TetMeshData::summary() const;
 template <> std::string ReportData::summary() const;
 template <> std::string MaterialsData::summary() const;
 template <> std::string MatrixData::summary() const;
+template <> std::string DenseMatrixData::summary() const;
 
 template <class D, class T>
 std::shared_ptr<const D> makeData(T&& value) {

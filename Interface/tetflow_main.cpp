@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <optional>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -25,6 +26,7 @@
 
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/IO/FileUtil.h"
+#include "Algorithms/FEM/Petsc/PetscLinearSolver.h"
 #include "Dataflow/Executor.h"
 #include "Dataflow/NetworkFile.h"
 #include "Dataflow/RunReport.h"
@@ -468,6 +470,16 @@ int main(int argc, char** argv) {
   // SIGXFSZ killing the process with a temp file left behind.
   std::signal(SIGXFSZ, SIG_IGN);
   std::vector<std::string> a(argv + 1, argv + argc);
+  // Under mpirun: rank 0 runs the command, the other ranks serve its PETSc solves
+  // (Algorithms/FEM/Petsc/PetscLinearSolver.h). Without mpirun nothing starts here.
+  std::optional<tetflow::ParallelSession> mpi;
+  try {
+    mpi.emplace();
+  } catch (const std::exception& e) {
+    std::cerr << "tetflow: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  if (mpi->worker()) return mpi->runWorker();
   if (a.empty()) return usageError("no command given");
   ModuleRegistry reg;
   registerStandardModules(reg);

@@ -24,10 +24,7 @@ public:
       p.dipole_moment = parseVec3(ctx.getString("dipole_moment"), "dipole_moment");
       p.dipole_separation = ctx.getDouble("dipole_separation");
     }
-    p.solver.kind = solverKindFromName(ctx.getString("solver"));
-    p.solver.preconditioner = preconditionerKindFromName(ctx.getString("preconditioner"));
-    p.solver.tolerance = ctx.getDouble("tolerance");
-    p.solver.max_iterations = ctx.getInt("max_iterations");
+    p.solver = solverParamsFrom(ctx);
     p.estimate_condition = ctx.getBool("estimate_condition");
     p.condition.max_dofs = ctx.getInt("max_eigen_dofs");
 
@@ -90,19 +87,6 @@ void registerAssembleFEMPoisson(ModuleRegistry& r) {
                              "dipole: distance of the +I/-I monopoles; 0 = the limit (partial "
                              "integration: load m . grad phi in the tet containing the dipole)");
   dsep.min = 0.0;
-  ParamSpec solver = makeParam("solver", ParamType::Enum, std::string("minres"), "",
-                               "minres (Paige-Saunders) or cg");
-  solver.choices = {"minres", "cg"};
-  ParamSpec prec = makeParam("preconditioner", ParamType::Enum, std::string("jacobi"), "",
-                             "jacobi (M = diag(K)) or none");
-  prec.choices = {"jacobi", "none"};
-  ParamSpec tol = makeParam("tolerance", ParamType::Double, d.solver.tolerance, "",
-                            "stop when ||r||_{M^-1} <= tolerance * ||b||_{M^-1}");
-  tol.min = 1e-16; // below double precision a relative residual is not reachable
-  tol.max = 0.999;
-  ParamSpec maxit = makeParam("max_iterations", ParamType::Int, int64_t(d.solver.max_iterations), "",
-                              "iteration limit (not converging is reported, not an error)");
-  maxit.min = 1;
   ParamSpec est = makeParam("estimate_condition", ParamType::Bool, true, "",
                             "compute kappa(K) and kappa(D^-1/2 K D^-1/2) with Spectra eigen solves "
                             "(sparse Cholesky; for large meshes set false: Lanczos estimates)");
@@ -110,7 +94,8 @@ void registerAssembleFEMPoisson(ModuleRegistry& r) {
                                 "estimate_condition: above this many unknowns use the Lanczos "
                                 "estimates instead of the eigen solves (0 = no limit)");
   maxDofs.min = 0;
-  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, solver, prec, tol, maxit, est, maxDofs};
+  const std::vector<ParamSpec> sp = solverParamSpecs();
+  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5]};
   m.summaryKeys = {"dofs", "nnz", "kappa", "iterations", "relative_residual", "converged"};
   m.factory = [] { return std::make_unique<AssembleFEMPoisson>(); };
   r.add(std::move(m));

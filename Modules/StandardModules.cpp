@@ -17,6 +17,8 @@ void registerStandardModules(ModuleRegistry& r) {
   registerCleaveMesh(r);
   registerImproveMesh(r);
   registerAssembleFEMPoisson(r);
+  registerComputeLeadField(r);
+  registerAnalyticSphereEEG(r);
 }
 
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma) {

@@ -1,6 +1,7 @@
 #pragma once
 // Registration of every TetFlow module. Dataflow never includes concrete modules: tools call this
 // once to fill a registry.
+#include "Algorithms/FEM/IterativeSolver.h"
 #include "Algorithms/MeshImprovement/MeshImprovement.h"
 #include "Dataflow/ModuleRegistry.h"
 
@@ -22,6 +23,8 @@ void registerComputeSizingField(ModuleRegistry& r);
 void registerCleaveMesh(ModuleRegistry& r);
 void registerAssembleFEMPoisson(ModuleRegistry& r);
 void registerImproveMesh(ModuleRegistry& r);
+void registerComputeLeadField(ModuleRegistry& r);
+void registerAnalyticSphereEEG(ModuleRegistry& r);
 
 // "LabelVolume or Materials" inputs: a label volume becomes LabelMaterials (blendSigma voxels).
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma);
@@ -32,6 +35,11 @@ std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, doubl
 std::vector<ParamSpec> improveParamSpecs(const std::string& prefix);
 ImproveParams improveParamsFrom(const ExecutionContext& ctx, const std::string& prefix);
 void logUnfixed(ExecutionContext& ctx, const ImproveStats& s, const ImproveParams& p);
+
+// Solver parameters shared by AssembleFEMPoisson and ComputeLeadField, in this order: solver,
+// preconditioner, tolerance, max_iterations, solver_backend, petsc_options.
+std::vector<ParamSpec> solverParamSpecs();
+SolverParams solverParamsFrom(const ExecutionContext& ctx);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);

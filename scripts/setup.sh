@@ -20,6 +20,7 @@ packages=(
   qt6-base-dev libqt6opengl6-dev
   libvtk9-dev libeigen3-dev libboost-dev libboost-program-options-dev
   libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev libpugixml-dev
+  libpetsc-real-dev openmpi-bin
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core
 )
 # --deps-only PKG...: these too (scripts/fuzz.sh passes clang's).

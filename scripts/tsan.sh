@@ -18,7 +18,7 @@ JOBS=${TETFLOW_JOBS:-$(nproc)}
 
 if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
   CC=clang-14 CXX=clang++-14 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DTETFLOW_SANITIZE=thread -DTETFLOW_BUILD_GUI=OFF -DTETFLOW_BUILD_BENCHMARKS=OFF
+    -DTETFLOW_SANITIZE=thread -DTETFLOW_BUILD_GUI=OFF -DTETFLOW_BUILD_BENCHMARKS=OFF -DTETFLOW_WITH_PETSC=OFF
 fi
 cmake --build "$BUILD_DIR" -j "$JOBS"
 archer=/usr/lib/llvm-14/lib/libarcher.so

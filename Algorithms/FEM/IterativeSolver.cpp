@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
+#include "Petsc/PetscLinearSolver.h"
 
 namespace tetflow {
 
@@ -14,7 +15,12 @@ namespace {
 constexpr std::pair<SolverKind, const char*> kSolverNames[] = {{SolverKind::Minres, "minres"},
                                                                {SolverKind::Cg, "cg"}};
 constexpr std::pair<PreconditionerKind, const char*> kPrecNames[] = {
-    {PreconditionerKind::Jacobi, "jacobi"}, {PreconditionerKind::None, "none"}};
+    {PreconditionerKind::Jacobi, "jacobi"},
+    {PreconditionerKind::None, "none"},
+    {PreconditionerKind::Gamg, "gamg"},
+    {PreconditionerKind::Hypre, "hypre"}};
+constexpr std::pair<SolverBackend, const char*> kBackendNames[] = {{SolverBackend::Eigen, "eigen"},
+                                                                   {SolverBackend::Petsc, "petsc"}};
 constexpr std::pair<SolverStatus, const char*> kStatusNames[] = {
     {SolverStatus::NotRun, "not_run"},
     {SolverStatus::Converged, "converged"},
@@ -51,6 +57,8 @@ PreconditionerKind preconditionerKindFromName(const std::string& n) {
   return fromName(kPrecNames, n, "preconditioner");
 }
 const char* solverStatusName(SolverStatus s) { return toName(kStatusNames, s); }
+const char* solverBackendName(SolverBackend b) { return toName(kBackendNames, b); }
+SolverBackend solverBackendFromName(const std::string& n) { return fromName(kBackendNames, n, "solver_backend"); }
 
 void SolverParams::validate() const {
   if (!(tolerance > 0.0 && tolerance < 1.0)) {
@@ -59,6 +67,15 @@ void SolverParams::validate() const {
     throw InputError(m.str());
   }
   if (max_iterations < 1) throw InputError("max_iterations = " + std::to_string(max_iterations) + ": must be >= 1");
+  const bool amg = preconditioner == PreconditionerKind::Gamg || preconditioner == PreconditionerKind::Hypre;
+  if (amg && backend != SolverBackend::Petsc)
+    throw InputError(std::string("preconditioner ") + preconditionerKindName(preconditioner) +
+                     " is PETSc's algebraic multigrid: set solver_backend = petsc, or use jacobi or "
+                     "none with solver_backend = eigen");
+  if (backend == SolverBackend::Petsc && !petscAvailable())
+    throw InputError("solver_backend = petsc: this TetFlow was built without PETSc; install "
+                     "libpetsc-real-dev (scripts/setup.sh does) and reconfigure with "
+                     "-DTETFLOW_WITH_PETSC=ON, or use solver_backend = eigen");
 }
 
 bool IterativeSolver::step(int64_t k, double relres) {
@@ -87,6 +104,11 @@ void IterativeSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     throw InputError("IterativeSolver: right-hand side has " + std::to_string(b.size()) +
                      " entries for a matrix of size " + std::to_string(K.rows()));
   const Eigen::Index n = K.rows();
+  if (params_.backend == SolverBackend::Petsc) {
+    solvePetsc(b, x);
+    seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return;
+  }
   Eigen::VectorXd minv;
   if (params_.preconditioner == PreconditionerKind::Jacobi) {
     minv = K.diagonal();
@@ -120,6 +142,30 @@ void IterativeSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     trueRes_ = (b - kx).norm() / bnorm;
   }
   seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int IterativeSolver::ranks() const { return petsc_ ? petsc_->ranks() : 1; }
+
+void IterativeSolver::solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  if (!petsc_ || !petsc_->sameSystem(*K_, params_)) {
+    petsc_.reset(); // release the old system on every rank before distributing the new one
+    petsc_ = std::make_shared<PetscLinearSolver>(*K_, params_);
+  }
+  const PetscLinearSolver::Outcome o = petsc_->solve(b, x, progress_);
+  status_ = o.status;
+  iterations_ = o.iterations;
+  relres_ = o.relativeResidual;
+  history_ = o.history;
+  lanczos_ = {};
+  if (monitor_)
+    for (size_t k = 1; k < history_.size(); ++k) monitor_(int64_t(k), history_[k]);
+  trueRes_ = 0.0;
+  const double bnorm = b.norm();
+  if (bnorm > 0) {
+    Eigen::VectorXd kx;
+    multiplySymmetric(*K_, x, kx);
+    trueRes_ = (b - kx).norm() / bnorm;
+  }
 }
 
 namespace {

@@ -33,6 +33,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,23 +42,39 @@
 
 namespace tetflow {
 
+class PetscLinearSolver;
+
 enum class SolverKind : int { Minres = 0, Cg = 1 };
 const char* solverKindName(SolverKind k);
 SolverKind solverKindFromName(const std::string& name); // InputError listing the names
 
-enum class PreconditionerKind : int { Jacobi = 0, None = 1 };
+// gamg (PETSc's smoothed-aggregation AMG) and hypre (BoomerAMG) need backend Petsc.
+enum class PreconditionerKind : int { Jacobi = 0, None = 1, Gamg = 2, Hypre = 3 };
 const char* preconditionerKindName(PreconditionerKind k);
 PreconditionerKind preconditionerKindFromName(const std::string& name);
 
 enum class SolverStatus : int { NotRun = 0, Converged = 1, MaxIterations = 2, Breakdown = 3 };
 const char* solverStatusName(SolverStatus s); // "not_run", "converged", "max_iterations", "breakdown"
 
+// Where the iterations run: Eigen = the solvers of this file (one process, OpenMP); Petsc = PETSc's
+// KSP (KSPMINRES / KSPCG) with PCJACOBI / PCNONE / PCGAMG / PCHYPRE, on every MPI rank of the run
+// (Petsc/PetscLinearSolver.h). Same stopping rule, same queries (lanczos() stays empty).
+enum class SolverBackend : int { Eigen = 0, Petsc = 1 };
+const char* solverBackendName(SolverBackend b);
+SolverBackend solverBackendFromName(const std::string& name);
+
 struct SolverParams {
   SolverKind kind = SolverKind::Minres;
   PreconditionerKind preconditioner = PreconditionerKind::Jacobi;
   double tolerance = 1e-8;         // relative, in (0, 1)
   int64_t max_iterations = 10000;  // >= 1
-  // Throws InputError naming the parameter (tolerance, max_iterations) when out of range.
+  SolverBackend backend = SolverBackend::Eigen;
+  std::string petsc_options;       // Petsc: PETSc options (e.g. "-ksp_view"), applied after ours
+  SolverParams() = default;
+  SolverParams(SolverKind k, PreconditionerKind p, double tol, int64_t maxIterations)
+      : kind(k), preconditioner(p), tolerance(tol), max_iterations(maxIterations) {}
+  // Throws InputError naming the parameter (tolerance, max_iterations, preconditioner,
+  // solver_backend) when out of range or not available in this build.
   void validate() const;
 };
 
@@ -86,7 +103,9 @@ public:
   void setMonitor(Monitor m) { monitor_ = std::move(m); }
   void setProgress(Progress* p) { progress_ = p; }
 
-  // --- run --- (x is resized; x0 = 0). InputError for a missing/non-square operator, a size
+  // --- run --- (x is resized; x0 = 0). With backend Petsc the matrix is handed to PETSc at the
+  // first solve and kept (with its preconditioner set up) for later solves with the same
+  // operator and params: a lead field's many right-hand sides pay for the set-up once. InputError for a missing/non-square operator, a size
   // mismatch, bad params, or a non-positive diagonal with Jacobi.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 
@@ -99,14 +118,18 @@ public:
   const std::vector<double>& residualHistory() const { return history_; }
   const LanczosTridiagonal& lanczos() const { return lanczos_; }
   double seconds() const { return seconds_; }
+  int ranks() const; // MPI ranks of the last solve (1 for eigen)
 
 private:
   void runMinres(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd& minv);
   void runCg(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd& minv);
   bool step(int64_t k, double relres); // records history, calls monitor/progress; true = stop
 
+  void solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+
   SolverParams params_;
   const SparseMatrix* K_ = nullptr;
+  std::shared_ptr<PetscLinearSolver> petsc_; // Petsc: the distributed system, reused
   Monitor monitor_;
   Progress* progress_ = nullptr;
 

@@ -280,6 +280,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   res.relativeResidual = solver.relativeResidual();
   res.trueResidual = solver.trueResidual();
   res.residualHistory = solver.residualHistory();
+  res.ranks = solver.ranks();
   if (!res.converged) {
     std::ostringstream m;
     m << solverKindName(params.solver.kind) << " did not converge ("
@@ -295,7 +296,10 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   t0 = std::chrono::steady_clock::now();
   progress.beginStage("condition");
   const bool jacobi = params.solver.preconditioner == PreconditionerKind::Jacobi;
-  {
+  const bool petsc = params.solver.backend == SolverBackend::Petsc;
+  if (petsc) { // PETSc keeps no Lanczos tridiagonal: the estimates below come from Eigen CG runs
+    res.lanczos.method = "not available with solver_backend petsc";
+  } else {
     std::string what = params.solver.kind == SolverKind::Minres ? "MINRES" : "CG";
     what += jacobi ? " on M^-1 K, M = diag(K)" : " on K";
     res.lanczos = lanczosEstimate(solver.lanczos(), what);
@@ -305,6 +309,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     auto otherLanczos = [&](bool otherJacobi) {
       SolverParams p = params.solver;
       p.kind = SolverKind::Cg;
+      p.backend = SolverBackend::Eigen;
       p.preconditioner = otherJacobi ? PreconditionerKind::Jacobi : PreconditionerKind::None;
       IterativeSolver s(p);
       s.setOperator(sys.K);
@@ -318,7 +323,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
                                                       : "CG on K, random right-hand side");
     };
     auto lanczosFor = [&](bool wantJacobi) {
-      return wantJacobi == jacobi ? res.lanczos : otherLanczos(wantJacobi);
+      return wantJacobi == jacobi && !petsc ? res.lanczos : otherLanczos(wantJacobi);
     };
     const bool tooBig = params.condition.max_dofs > 0 && res.dofs > params.condition.max_dofs;
     if (params.estimate_condition && !tooBig) {
@@ -403,6 +408,8 @@ void writePoissonReport(const PoissonResult& r, Report& rep) {
   rep.set("nnz", i64(r.nnz));
   rep.set("solver", solverKindName(r.solver.kind));
   rep.set("preconditioner", preconditionerKindName(r.solver.preconditioner));
+  rep.set("solver_backend", solverBackendName(r.solver.backend));
+  rep.set("ranks", i64(r.ranks));
   rep.set("tolerance", ReportValue(r.solver.tolerance));
   rep.set("max_iterations", i64(r.solver.max_iterations));
   rep.set("iterations", i64(r.iterations));

@@ -95,6 +95,7 @@ struct PoissonResult {
   int64_t nnz = 0;                            // stored non-zeros of the reduced K (both triangles)
 
   SolverParams solver;
+  int64_t ranks = 1;             // MPI ranks of the solve (petsc backend; 1 for eigen)
   SolverStatus status = SolverStatus::NotRun;
   bool converged = false;
   int64_t iterations = 0;
@@ -136,7 +137,7 @@ void addPoissonFields(const PoissonResult& r, TetMesh& mesh);
 
 // Report keys, in this order: vertices, tets, materials, boundary_condition, boundary_vertices,
 // dirichlet_vertices, reference_vertices, unused_vertices, dofs, nnz, solver, preconditioner,
-// tolerance, max_iterations, iterations, relative_residual, true_residual, converged,
+// solver_backend, ranks, tolerance, max_iterations, iterations, relative_residual, true_residual, converged,
 // solver_status, kappa, kappa_method, lambda_min, lambda_max, kappa_jacobi, kappa_jacobi_method,
 // lambda_min_jacobi, lambda_max_jacobi, kappa_lanczos, kappa_lanczos_method, potential_min,
 // potential_max, then per electrode `electrode_<name>_current` (mA) and, for `electrodes`,

@@ -18,6 +18,7 @@ inline QColor portColor(PortType t) {
     case PortType::Matrix: return QColor(60, 130, 230);        // blue
     case PortType::Vector: return QColor(60, 200, 210);        // cyan
     case PortType::Report: return QColor(200, 200, 200);       // grey
+    case PortType::DenseMatrix: return QColor(40, 80, 170);    // dark blue
   }
   return Qt::white;
 }

@@ -1,0 +1,267 @@
+#include "LeadField.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/MemoryBudget.h"
+#include "Algorithms/IO/FileUtil.h"
+#include "Assembly.h"
+#include "BoundaryConditions.h"
+
+namespace tetflow {
+
+namespace {
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+std::string vecText(const Vec3& p) {
+  std::ostringstream s;
+  s << "(" << p[0] << ", " << p[1] << ", " << p[2] << ")";
+  return s.str();
+}
+} // namespace
+
+LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& params, Progress& progress) {
+  LeadFieldResult res;
+  mesh.validateStructure("mesh");
+  if (mesh.numTets() == 0) throw InputError("mesh: no tets; the lead field needs a tetrahedral mesh");
+  if (params.electrodes.empty()) throw InputError("electrodes: none given; the lead field needs at least two");
+  if (params.electrodes.size() < 2) throw InputError("electrodes: only one given; the lead field needs at least two");
+  if (params.sourceLabels.empty() == params.sourcePoints.empty())
+    throw InputError("sources: give either source labels (the centroids of their tets) or source points, "
+                     "not both and not neither");
+  params.solver.validate();
+  params.conductivities.validate();
+  const size_t ne = params.electrodes.size(), np = mesh.numPoints();
+
+  // --- sources ---
+  if (!params.sourceLabels.empty()) {
+    for (int32_t l : params.sourceLabels) {
+      if (std::find(mesh.materials.begin(), mesh.materials.end(), l) == mesh.materials.end())
+        throw InputError("source_labels: label " + std::to_string(l) + " is not in the mesh");
+    }
+    for (size_t t = 0; t < mesh.numTets(); ++t)
+      if (std::find(params.sourceLabels.begin(), params.sourceLabels.end(), mesh.materials[t]) !=
+          params.sourceLabels.end()) {
+        const auto& q = mesh.tets[t];
+        Vec3 c{0, 0, 0};
+        for (int a = 0; a < 4; ++a) c = c + 0.25 * mesh.points[size_t(q[a])];
+        res.sources.push_back(c);
+        res.sourceTets.push_back(int64_t(t));
+      }
+  } else {
+    for (size_t i = 0; i < params.sourcePoints.size(); ++i) {
+      const auto loc = locatePoint(mesh, params.sourcePoints[i]);
+      if (!loc)
+        throw InputError("sources: point " + std::to_string(i + 1) + " at " + vecText(params.sourcePoints[i]) +
+                         " mm lies outside the mesh");
+      res.sources.push_back(params.sourcePoints[i]);
+      res.sourceTets.push_back(loc->tet);
+      progress.checkCancel();
+    }
+  }
+  const size_t ns = res.sources.size();
+  {
+    const double bytes = 8.0 * double(ne) * 3.0 * double(ns) + 100.0 * double(mesh.numTets());
+    requireMemory(bytes, "the lead field of " + std::to_string(ne) + " electrodes x " + std::to_string(ns) + " sources",
+                  [&](double avail) {
+                    const double fits = std::floor(std::max(0.0, avail - 100.0 * double(mesh.numTets())) / (24.0 * double(ne)));
+                    std::ostringstream f;
+                    f << "use at most " << fits << " sources (a source point list, or fewer source labels)";
+                    return f.str();
+                  });
+  }
+
+  // --- assemble ---
+  auto t0 = std::chrono::steady_clock::now();
+  progress.beginStage("assemble");
+  const SparseMatrix K = assembleStiffness(mesh, params.conductivities, progress);
+  progress.endStage();
+  res.assembleSeconds = secondsSince(t0);
+
+  // --- snap electrodes to the nearest boundary vertex ---
+  progress.beginStage("snap electrodes");
+  const std::vector<uint8_t> onBoundary = boundaryVertexFlags(mesh);
+  std::vector<int32_t> boundary;
+  for (size_t v = 0; v < np; ++v)
+    if (onBoundary[v]) boundary.push_back(int32_t(v));
+  for (const Electrode& e : params.electrodes) {
+    double best = std::numeric_limits<double>::infinity();
+    int32_t bv = -1;
+    for (int32_t v : boundary) {
+      const double d = norm(mesh.points[size_t(v)] - e.position);
+      if (d < best) best = d, bv = v;
+    }
+    res.names.push_back(e.name);
+    res.given.push_back(e.position);
+    res.vertex.push_back(bv);
+    res.snapDistance.push_back(best);
+  }
+  for (size_t a = 0; a < ne; ++a)
+    for (size_t b = a + 1; b < ne; ++b)
+      if (res.vertex[a] == res.vertex[b])
+        res.notes.push_back("electrodes " + res.names[a] + " and " + res.names[b] + " snap to the same vertex " +
+                            std::to_string(res.vertex[a]) + ": their rows are equal");
+  res.reference = params.reference;
+  if (params.reference != "average") {
+    auto it = std::find(res.names.begin(), res.names.end(), params.reference);
+    if (it == res.names.end())
+      throw InputError("reference '" + params.reference + "' is not an electrode name; use 'average' or one of "
+                       "the names in the electrode file (e.g. " + res.names[0] + ")");
+    res.ground = int(it - res.names.begin());
+  }
+  int32_t ncomp = 0;
+  const std::vector<int32_t> comp = vertexComponents(mesh, ncomp);
+  const int32_t groundVertex = res.vertex[size_t(res.ground)];
+  for (size_t e = 0; e < ne; ++e)
+    if (comp[size_t(res.vertex[e])] != comp[size_t(groundVertex)])
+      throw InputError("electrodes " + res.names[e] + " and " + res.names[size_t(res.ground)] +
+                       " snap to different connected pieces of the mesh; every electrode must be on the "
+                       "surface of the same piece");
+  DirichletSet dir(np);
+  dir.set(size_t(groundVertex), 0.0);
+  {
+    std::vector<uint8_t> used(np, 0), anchored(size_t(ncomp), 0);
+    for (const auto& t : mesh.tets)
+      for (int32_t v : t) used[size_t(v)] = 1;
+    anchored[size_t(comp[size_t(groundVertex)])] = 1;
+    for (size_t v = 0; v < np; ++v) {
+      if (!used[v]) {
+        dir.set(v, 0.0);
+      } else if (!anchored[size_t(comp[v])]) { // other pieces: their lowest vertex at 0 V
+        anchored[size_t(comp[v])] = 1;
+        dir.set(v, 0.0);
+      }
+    }
+    if (ncomp > 1)
+      res.notes.push_back("the mesh has " + std::to_string(ncomp) + " separate pieces; sources in pieces without "
+                          "electrodes have zero lead field");
+  }
+  ReducedSystem sys = eliminateDirichlet(K, Eigen::VectorXd::Zero(Eigen::Index(np)), dir);
+  res.dofs = sys.K.rows();
+  res.nnz = sys.K.nonZeros();
+  progress.endStage();
+
+  // --- one solve per electrode ---
+  t0 = std::chrono::steady_clock::now();
+  progress.beginStage("solve");
+  res.matrix = Eigen::MatrixXd::Zero(Eigen::Index(ne), Eigen::Index(3 * ns));
+  IterativeSolver solver(params.solver);
+  solver.setOperator(sys.K);
+  NullProgress quiet; // the solver's own fraction would hide the per-electrode one
+  solver.setProgress(&quiet);
+  Eigen::VectorXd x;
+  const auto& q = mesh.tets;
+  double mSeconds = 0;
+  for (size_t e = 0; e < ne; ++e) {
+    progress.checkCancel();
+    if (res.vertex[e] == groundVertex) continue; // V_e - V_g = 0
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(res.dofs);
+    b[sys.reducedIndex[size_t(res.vertex[e])]] = 1.0; // 1 mA in at e, out at the ground
+    solver.solve(b, x);
+    ++res.solves;
+    res.iterationsTotal += solver.iterations();
+    res.iterationsMax = std::max(res.iterationsMax, solver.iterations());
+    res.ranks = solver.ranks();
+    if (!solver.converged()) {
+      res.converged = false;
+      std::ostringstream m;
+      m << "the solve for electrode " << res.names[e] << " did not converge (" << solverStatusName(solver.status())
+        << ", relative residual " << solver.relativeResidual() << ")";
+      res.notes.push_back(m.str());
+    }
+    const auto tm = std::chrono::steady_clock::now();
+    const Eigen::VectorXd u = sys.expand(x);
+#pragma omp parallel for schedule(static)
+    for (int64_t s = 0; s < int64_t(ns); ++s) {
+      const size_t t = size_t(res.sourceTets[size_t(s)]);
+      const TetGradients g = tetGradients(mesh, t);
+      Vec3 grad{0, 0, 0};
+      for (int a = 0; a < 4; ++a) grad = grad + u[q[t][a]] * g.grad[size_t(a)];
+      for (int k = 0; k < 3; ++k) res.matrix(Eigen::Index(e), Eigen::Index(3 * s + k)) = grad[size_t(k)];
+    }
+    mSeconds += secondsSince(tm);
+    progress.report(double(e + 1) / double(ne));
+  }
+  progress.endStage();
+  res.solveSeconds = secondsSince(t0) - mSeconds;
+
+  // --- reference ---
+  t0 = std::chrono::steady_clock::now();
+  progress.beginStage("lead field");
+  if (params.reference == "average") {
+    const Eigen::RowVectorXd mean = res.matrix.colwise().mean();
+    res.matrix.rowwise() -= mean;
+  }
+  progress.endStage();
+  res.matrixSeconds = mSeconds + secondsSince(t0);
+  return res;
+}
+
+void writeLeadField(const LeadFieldResult& r, const TetMesh& mesh, const std::string& path) {
+  const std::string ext = fileExtension(path);
+  const size_t ne = r.names.size(), ns = r.sources.size();
+  if (ext != ".npy" && ext != ".csv")
+    throw InputError("lead field file " + path + ": unknown extension '" + ext + "'; use .npy (binary) or .csv (text)");
+  {
+    AtomicOutputFile out(path, ext == ".npy");
+    auto& s = out.stream();
+    if (ext == ".npy") {
+      std::ostringstream h;
+      h << "{'descr': '<f8', 'fortran_order': False, 'shape': (" << ne << ", " << ns << ", 3), }";
+      std::string header = h.str();
+      const size_t total = 10 + header.size() + 1; // magic(6) version(2) length(2) header '\n'
+      header.append((64 - total % 64) % 64, ' ');
+      header.push_back('\n');
+      const uint16_t len = uint16_t(header.size());
+      s.write("\x93NUMPY\x01\x00", 8);
+      const char lenBytes[2] = {char(len & 0xff), char(len >> 8)};
+      s.write(lenBytes, 2);
+      s.write(header.data(), std::streamsize(header.size()));
+      // Row-major (electrode, source, axis): the matrix row e, in column order.
+      std::vector<double> row(3 * ns);
+      for (size_t e = 0; e < ne; ++e) {
+        for (size_t c = 0; c < 3 * ns; ++c) row[c] = r.matrix(Eigen::Index(e), Eigen::Index(c));
+        s.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(double)));
+      }
+    } else {
+      s << "electrode";
+      for (size_t j = 0; j < ns; ++j) s << ",s" << j << "_x,s" << j << "_y,s" << j << "_z";
+      s << "\n" << std::setprecision(17);
+      for (size_t e = 0; e < ne; ++e) {
+        s << r.names[e];
+        for (size_t c = 0; c < 3 * ns; ++c) s << ',' << r.matrix(Eigen::Index(e), Eigen::Index(c));
+        s << "\n";
+      }
+    }
+    out.commit();
+  }
+  {
+    AtomicOutputFile out(path + ".electrodes.csv", false);
+    auto& s = out.stream();
+    s << "name,x,y,z,vertex,vertex_x,vertex_y,vertex_z,distance_mm\n" << std::setprecision(10);
+    for (size_t e = 0; e < ne; ++e) {
+      const Vec3& p = mesh.points[size_t(r.vertex[e])];
+      s << r.names[e] << ',' << r.given[e][0] << ',' << r.given[e][1] << ',' << r.given[e][2] << ',' << r.vertex[e]
+        << ',' << p[0] << ',' << p[1] << ',' << p[2] << ',' << r.snapDistance[e] << "\n";
+    }
+    out.commit();
+  }
+  {
+    AtomicOutputFile out(path + ".sources.csv", false);
+    auto& s = out.stream();
+    s << "index,x,y,z,tet\n" << std::setprecision(10);
+    for (size_t j = 0; j < ns; ++j)
+      s << j << ',' << r.sources[j][0] << ',' << r.sources[j][1] << ',' << r.sources[j][2] << ',' << r.sourceTets[j]
+        << "\n";
+    out.commit();
+  }
+}
+
+} // namespace tetflow

@@ -1,0 +1,433 @@
+// The EEG forward problem as modules: FEM dipole potentials against the analytic four-shell sphere
+// (AnalyticSphereEEG), lead fields by reciprocity (ComputeLeadField) against direct dipole solves.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <unistd.h>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+
+#include "Algorithms/FEM/Petsc/PetscLinearSolver.h"
+#include "Algorithms/IO/FileUtil.h"
+#include "Dataflow/Executor.h"
+#include "Dataflow/NetworkFile.h"
+#include "Modules/StandardModules.h"
+#include "TestUtil.h"
+
+using namespace tetflow;
+
+namespace {
+const char* kSigma = "1:0.33; 2:0.0042; 3:1.79; 4:0.33";
+
+// Head phantom (scalp 1, skull 2, CSF 3, brain 4) -> regular BCC lattice -> CleaveMesh.
+void addHead(Network& net, const std::string& radii, double voxel, double cell) {
+  std::istringstream s(radii);
+  std::string r[4];
+  s >> r[0] >> r[1] >> r[2] >> r[3]; // scalp skull csf brain
+  net.addModule("CreatePhantom", "p");
+  net.setParameterText("p", "kind", "head");
+  net.setParameterText("p", "voxel_size", std::to_string(voxel));
+  net.setParameterText("p", "radius", r[0]);
+  net.setParameterText("p", "skull_radius", r[1]);
+  net.setParameterText("p", "csf_radius", r[2]);
+  net.setParameterText("p", "brain_radius", r[3]);
+  net.addModule("GenerateBackgroundMesh", "bg");
+  net.setParameterText("bg", "cell_size", std::to_string(cell));
+  net.addModule("CleaveMesh", "cl");
+  net.setParameterText("cl", "strip_exterior", "0");
+  net.connect("p", 0, "bg", 0);
+  net.connect("p", 0, "cl", 0);
+  net.connect("bg", 0, "cl", 1);
+}
+
+void addDipole(Network& net, const std::string& id, const std::string& pos, const std::string& moment) {
+  net.addModule("AssembleFEMPoisson", id);
+  net.setParameterText(id, "conductivities", kSigma);
+  net.setParameterText(id, "boundary_condition", "dipole");
+  net.setParameterText(id, "dipole_position", pos);
+  net.setParameterText(id, "dipole_moment", moment);
+  net.setParameterText(id, "estimate_condition", "false");
+  net.connect("cl", 0, id, 0);
+}
+
+struct SphereErrors {
+  double rdm, lnMag;
+};
+
+// FEM on the head phantom (78/80/86/92 mm, 2 mm voxels) at lattice `cell`, radial and tangential
+// dipoles at (0, 0, 40) mm, against the analytic series at every scalp vertex.
+std::vector<SphereErrors> sphereErrors(double cell) {
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "92 86 80 78", 2.0, cell);
+  net.setParameterText("cl", "blend_sigma", "1"); // as Nets/head_dipole.srn and eeg_leadfield.srn
+  const std::pair<const char*, const char*> dipoles[] = {{"radial", "0 0 0.01"}, {"tangential", "0.01 0 0"}};
+  for (const auto& [name, moment] : dipoles) {
+    addDipole(net, std::string("fem_") + name, "0 0 40", moment);
+    net.addModule("AnalyticSphereEEG", std::string("an_") + name);
+    net.setParameterText(std::string("an_") + name, "dipole_position", "0 0 40");
+    net.setParameterText(std::string("an_") + name, "dipole_moment", moment);
+    net.connect(std::string("fem_") + name, 0, std::string("an_") + name, 0);
+  }
+  Executor exec;
+  const auto sum = exec.execute(net);
+  EXPECT_TRUE(sum.success);
+  std::vector<SphereErrors> out;
+  for (const auto& [name, moment] : dipoles) {
+    const Report& r = exec.state(std::string("an_") + name)->report;
+    EXPECT_GT(r.number("electrodes"), 1000);
+    out.push_back({r.number("rdm"), r.number("ln_mag")});
+    std::printf("lattice %g mm, %s dipole: RDM %.4f, lnMAG %.4f (%g electrodes)\n", cell, name, r.number("rdm"),
+                r.number("ln_mag"), r.number("electrodes"));
+  }
+  return out;
+}
+
+// Electrodes on a sphere of radius r (fixed directions, a few mm off the surface), as CSV.
+std::string electrodeCsv(double r, int n) {
+  std::ostringstream s;
+  s << "name,x,y,z\n";
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - 1.6 * (i + 0.5) / n; // upper part of the head
+    const double rho = std::sqrt(1 - z * z), phi = 2.399963 * i;
+    s << "E" << i + 1 << "," << r * rho * std::cos(phi) << "," << r * rho * std::sin(phi) << "," << r * z << "\n";
+  }
+  return s.str();
+}
+
+std::vector<int32_t> snappedVertices(const std::string& sidecar) {
+  std::ifstream in(sidecar);
+  std::string line;
+  std::getline(in, line); // header
+  std::vector<int32_t> v;
+  while (std::getline(in, line)) {
+    std::istringstream s(line);
+    std::string f;
+    for (int i = 0; i < 5 && std::getline(s, f, ','); ++i)
+      if (i == 4) v.push_back(std::stoi(f));
+  }
+  return v;
+}
+
+std::string dipoleId(int s, int k) { // "d<s><k>" (no "d" + to_string: GCC 12 -Wrestrict)
+  char id[16];
+  std::snprintf(id, sizeof id, "d%d%d", s, k);
+  return id;
+}
+
+const Eigen::MatrixXd& leadField(Executor& exec, const std::string& id) {
+  return *dynamic_cast<const DenseMatrixData&>(*exec.state(id)->outputs.at(0)).value;
+}
+} // namespace
+
+// Measured (this VM; blend_sigma 1, regular BCC): 4 mm RDM 0.029 / 0.036, lnMAG 0.131 / 0.141
+// (radial / tangential); 3 mm RDM 0.013 / 0.018, lnMAG 0.090 / 0.091. Bounds: the measured values
+// plus ~20 %; both errors must fall from 4 mm to 3 mm. (|lnMAG| <= 0.05 at 3 mm, the issue's
+// target, is not met: README "Validation against the four-shell sphere".)
+TEST(EegForward, FourShellSphereErrorsFallWithTheLattice) {
+  const auto e4 = sphereErrors(4.0);
+  const auto e3 = sphereErrors(3.0);
+  ASSERT_EQ(e4.size(), 2u);
+  ASSERT_EQ(e3.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i == 0 ? "radial" : "tangential");
+    EXPECT_LT(e3[i].rdm, e4[i].rdm);
+    EXPECT_LT(std::abs(e3[i].lnMag), std::abs(e4[i].lnMag));
+    EXPECT_LE(e3[i].rdm, 0.022);
+    EXPECT_LE(std::abs(e3[i].lnMag), 0.11);
+    EXPECT_LE(e4[i].rdm, 0.044);
+    EXPECT_LE(std::abs(e4[i].lnMag), 0.17);
+  }
+}
+
+// Reciprocity: every column of the lead field equals the average-referenced electrode potentials
+// of a direct dipole solve (unit moment along x, y, z at each source), to the solver tolerance.
+TEST(EegForward, LeadFieldEqualsDirectDipoleSolves) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 12));
+  const char* sources[] = {"0 0 5", "4 -3 2", "-6 2 -4"};
+  test::writeBytes(dir.file("src.csv"), "x,y,z\n0,0,5\n4,-3,2\n-6,2,-4\n");
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "20 17 14 12", 1.0, 3.0);
+  for (const char* ref : {"average", "E3"}) {
+    const std::string id = std::string("lf_") + ref;
+    net.addModule("ComputeLeadField", id);
+    net.setParameterText(id, "conductivities", kSigma);
+    net.setParameterText(id, "electrodes_file", dir.file("el.csv"));
+    net.setParameterText(id, "sources_file", dir.file("src.csv"));
+    net.setParameterText(id, "reference", ref);
+    net.setParameterText(id, "tolerance", "1e-12");
+    net.setParameterText(id, "filename", dir.file(id + ".npy"));
+    net.connect("cl", 0, id, 0);
+  }
+  const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
+  for (int s = 0; s < 3; ++s)
+    for (int k = 0; k < 3; ++k) {
+      const std::string id = dipoleId(s, k);
+      addDipole(net, id, sources[s], axes[k]);
+      net.setParameterText(id, "tolerance", "1e-12");
+    }
+  Executor exec;
+  const auto sum = exec.execute(net);
+  ASSERT_TRUE(sum.success) << exec.state("lf_average")->error;
+  const Eigen::MatrixXd& L = leadField(exec, "lf_average");
+  ASSERT_EQ(L.rows(), 12);
+  ASSERT_EQ(L.cols(), 9);
+  const Report& rep = exec.state("lf_average")->report;
+  EXPECT_EQ(rep.number("solves"), 11); // one per electrode but the ground
+  EXPECT_EQ(rep.number("sources"), 3);
+  EXPECT_GT(rep.number("snap_distance_max"), 0.0);
+  EXPECT_LT(rep.number("snap_distance_max"), 3.0);
+  const std::vector<int32_t> vertex = snappedVertices(dir.file("lf_average.npy.electrodes.csv"));
+  ASSERT_EQ(vertex.size(), 12u);
+  double worst = 0;
+  for (int s = 0; s < 3; ++s)
+    for (int k = 0; k < 3; ++k) {
+      const std::string id = dipoleId(s, k);
+      const TetMesh& m = dynamic_cast<const TetMeshData&>(*exec.state(id)->outputs.at(0)).value;
+      const auto& u = m.pointFields.at("potential").values;
+      Eigen::VectorXd direct(12);
+      for (int e = 0; e < 12; ++e) direct[e] = u[size_t(vertex[size_t(e)])];
+      direct.array() -= direct.mean();
+      const Eigen::VectorXd col = L.col(3 * s + k);
+      EXPECT_GT(col.norm(), 0.0);
+      worst = std::max(worst, (col - direct).norm() / direct.norm());
+    }
+  EXPECT_LT(worst, 1e-7) << "lead field vs direct solves, largest relative difference";
+  // Referenced to E3: row E3 is 0 and the rows differ from the average ones by E3's row.
+  const Eigen::MatrixXd& L3 = leadField(exec, "lf_E3");
+  EXPECT_EQ(L3.row(2).norm(), 0.0);
+  Eigen::MatrixXd shifted = L.rowwise() - L.row(2);
+  EXPECT_LT((L3 - shifted).norm(), 1e-9 * L.norm());
+  // The .npy file: NumPy header, shape (12, 3, 3), the matrix in (electrode, source, axis) order.
+  const auto bytes = readFileBytes(dir.file("lf_average.npy"));
+  ASSERT_GT(bytes.size(), 10u);
+  EXPECT_EQ(std::string(bytes.begin() + 1, bytes.begin() + 6), "NUMPY");
+  const size_t headerLen = size_t(uint8_t(bytes[8])) | (size_t(uint8_t(bytes[9])) << 8);
+  EXPECT_EQ((10 + headerLen) % 64, 0u);
+  EXPECT_NE(std::string(bytes.begin() + 10, bytes.begin() + 10 + long(headerLen)).find("'shape': (12, 3, 3)"),
+            std::string::npos);
+  ASSERT_EQ(bytes.size(), 10 + headerLen + 12 * 9 * 8);
+  for (int e = 0; e < 12; ++e)
+    for (int c = 0; c < 9; ++c) {
+      double v;
+      std::memcpy(&v, bytes.data() + 10 + headerLen + 8 * size_t(9 * e + c), 8);
+      EXPECT_EQ(v, L(e, c));
+    }
+}
+
+TEST(EegForward, LeadFieldSourcesFromLabelsAndErrors) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 6));
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "20 17 14 12", 1.0, 3.0);
+  net.addModule("ComputeLeadField", "lf");
+  net.setParameterText("lf", "conductivities", kSigma);
+  net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
+  net.setParameterText("lf", "source_labels", "4");
+  net.setParameterText("lf", "filename", dir.file("lf.csv"));
+  net.connect("cl", 0, "lf", 0);
+  Executor exec;
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("lf")->error;
+  const TetMesh& mesh = dynamic_cast<const TetMeshData&>(*exec.state("cl")->outputs.at(0)).value;
+  int64_t brain = 0;
+  for (int32_t l : mesh.materials) brain += l == 4;
+  EXPECT_EQ(exec.state("lf")->report.number("sources"), brain);
+  EXPECT_EQ(leadField(exec, "lf").cols(), 3 * brain);
+  // Average reference: every column sums to zero.
+  EXPECT_LT(leadField(exec, "lf").colwise().sum().cwiseAbs().maxCoeff(), 1e-12 * leadField(exec, "lf").norm());
+  const auto text = readFileBytes(dir.file("lf.csv"));
+  EXPECT_EQ(std::string(text.begin(), text.begin() + 25), "electrode,s0_x,s0_y,s0_z,");
+
+  // Bad inputs name the culprit.
+  auto fails = [&](const char* param, const std::string& value, const std::string& fragment) {
+    net.setParameterText("lf", param, value);
+    Executor e;
+    EXPECT_FALSE(e.execute(net).success) << param;
+    EXPECT_NE(e.state("lf")->error.find(fragment), std::string::npos) << e.state("lf")->error;
+  };
+  fails("source_labels", "9", "label 9 is not in the mesh");
+  net.setParameterText("lf", "source_labels", "4");
+  fails("reference", "Cz", "reference 'Cz' is not an electrode name");
+  net.setParameterText("lf", "reference", "average");
+  fails("electrodes_file", dir.file("missing.csv"), "missing.csv");
+  net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
+  fails("filename", dir.file("lf.mat"), "use .npy (binary) or .csv (text)");
+  net.setParameterText("lf", "filename", "");
+  fails("preconditioner", "gamg", "solver_backend = petsc");
+}
+
+// solver_backend = petsc in this process (one rank): the same iterations (within 1) and the same
+// potentials as the Eigen path; CG with PETSc's AMG preconditioners converges in far fewer.
+TEST(EegForward, PetscBackendMatchesEigen) {
+  if (!petscAvailable()) GTEST_SKIP() << "built without PETSc (TETFLOW_WITH_PETSC=OFF): not tested";
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "20 17 14 12", 1.0, 2.0);
+  addDipole(net, "eigen", "0 0 5", "0 0 1");
+  addDipole(net, "petsc", "0 0 5", "0 0 1");
+  net.setParameterText("petsc", "solver_backend", "petsc");
+  for (const char* pc : {"gamg", "hypre"}) {
+    const std::string id = std::string("cg_") + pc;
+    addDipole(net, id, "0 0 5", "0 0 1");
+    net.setParameterText(id, "solver_backend", "petsc");
+    net.setParameterText(id, "solver", "cg");
+    net.setParameterText(id, "preconditioner", pc);
+  }
+  Executor exec;
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("petsc")->error;
+  const Report& e = exec.state("eigen")->report;
+  const Report& p = exec.state("petsc")->report;
+  EXPECT_NEAR(p.number("iterations"), e.number("iterations"), 1.0);
+  EXPECT_EQ(std::get<std::string>(*p.find("solver_backend")), "petsc");
+  EXPECT_LE(p.number("relative_residual"), 1e-8);
+  auto potential = [&](const char* id) {
+    return dynamic_cast<const TetMeshData&>(*exec.state(id)->outputs.at(0)).value.pointFields.at("potential").values;
+  };
+  const auto ue = potential("eigen"), up = potential("petsc");
+  double diff = 0, scale = 0;
+  for (size_t i = 0; i < ue.size(); ++i) diff = std::max(diff, std::abs(ue[i] - up[i])), scale = std::max(scale, std::abs(ue[i]));
+  EXPECT_LT(diff, 1e-6 * scale);
+  for (const char* id : {"cg_gamg", "cg_hypre"}) {
+    const Report& r = exec.state(id)->report;
+    EXPECT_TRUE(std::get<bool>(*r.find("converged"))) << id;
+    EXPECT_LT(r.number("iterations"), e.number("iterations") / 3) << id;
+    const auto u = potential(id);
+    double d = 0;
+    for (size_t i = 0; i < ue.size(); ++i) d = std::max(d, std::abs(ue[i] - u[i]));
+    EXPECT_LT(d, 1e-5 * scale) << id;
+  }
+}
+
+#ifdef TETFLOW_MPIRUN
+namespace {
+struct Cmd {
+  int code;
+  std::string out;
+};
+Cmd shell(const std::string& cmd) {
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  Cmd r{-1, ""};
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+// OpenMPI refuses root unless told; --oversubscribe lets 2 ranks run on any core count. The
+// variables of this process's own MPI (a singleton, when an in-process PETSc test ran first) are
+// removed, or mpirun would take the job for a nested one.
+std::string mpirun(int ranks) {
+  std::string unset;
+  for (char** e = environ; *e; ++e) {
+    const std::string kv = *e;
+    if (kv.rfind("OMPI_", 0) == 0 || kv.rfind("PMIX_", 0) == 0) unset += "-u " + kv.substr(0, kv.find('=')) + " ";
+  }
+  return "env " + unset + std::string("OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 ") + TETFLOW_MPIRUN +
+         " -n " + std::to_string(ranks) + " --oversubscribe --bind-to none " + TETFLOW_CLI;
+}
+double reportNumber(const std::string& json, const std::string& key, size_t nth = 0) {
+  size_t at = 0;
+  for (size_t i = 0; i <= nth; ++i) {
+    at = json.find("\"" + key + "\": ", at);
+    if (at == std::string::npos) return NAN;
+    at += key.size() + 4;
+  }
+  return std::stod(json.substr(at));
+}
+} // namespace
+
+// `mpirun -n 2 tetflow run NET` with solver_backend = petsc: rank 0 reads, runs and writes; the
+// solve is shared. Same iterations (within 1) and the same lead field as a one-process Eigen run.
+TEST(EegForward, MpirunTwoRanksMatchesEigen) {
+  if (!petscAvailable()) GTEST_SKIP() << "built without PETSc (TETFLOW_WITH_PETSC=OFF): not tested";
+  test::TempDir dir;
+  test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 8));
+  for (const char* backend : {"eigen", "petsc"}) {
+    ModuleRegistry reg;
+    registerStandardModules(reg);
+    Network net(reg);
+    addHead(net, "20 17 14 12", 1.0, 2.0);
+    addDipole(net, "fem", "0 0 5", "0 0 1");
+    net.setParameterText("fem", "solver_backend", backend);
+    net.addModule("ComputeLeadField", "lf");
+    net.setParameterText("lf", "conductivities", kSigma);
+    net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
+    net.setParameterText("lf", "source_labels", "4");
+    net.setParameterText("lf", "solver_backend", backend);
+    net.setParameterText("lf", "filename", "lf.npy");
+    net.connect("cl", 0, "lf", 0);
+    net.addModule("WriteMesh", "w");
+    net.setParameterText("w", "filename", "fem.vtu");
+    net.connect("fem", 0, "w", 0);
+    saveNetwork(dir.file(std::string(backend) + ".srn"), net);
+  }
+  const std::string common = " --output-dir ";
+  const Cmd e = shell(std::string(TETFLOW_CLI) + " run " + dir.file("eigen.srn") + common + dir.file("oe") +
+                      " --report " + dir.file("e.json"));
+  ASSERT_EQ(e.code, 0) << e.out;
+  const Cmd p = shell(mpirun(2) + " run " + dir.file("petsc.srn") + common + dir.file("op") + " --report " +
+                      dir.file("p.json"));
+  ASSERT_EQ(p.code, 0) << p.out;
+  // One summary line: only rank 0 reports.
+  size_t summaries = 0;
+  for (size_t at = p.out.find("petsc.srn: "); at != std::string::npos; at = p.out.find("petsc.srn: ", at + 1)) ++summaries;
+  EXPECT_EQ(summaries, 1u) << p.out;
+  const auto ej = readFileBytes(dir.file("e.json")), pj = readFileBytes(dir.file("p.json"));
+  const std::string ejs(ej.begin(), ej.end()), pjs(pj.begin(), pj.end());
+  EXPECT_EQ(reportNumber(pjs, "ranks"), 2);
+  EXPECT_NEAR(reportNumber(pjs, "iterations"), reportNumber(ejs, "iterations"), 1.0);
+  EXPECT_NEAR(reportNumber(pjs, "iterations_max"), reportNumber(ejs, "iterations_max"), 1.0);
+  EXPECT_NEAR(reportNumber(pjs, "potential_max"), reportNumber(ejs, "potential_max"),
+              1e-6 * std::abs(reportNumber(ejs, "potential_max")));
+  // The lead fields agree entry by entry (to the solver tolerance).
+  const auto a = readFileBytes(dir.file("oe/lf.npy")), b = readFileBytes(dir.file("op/lf.npy"));
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 128u);
+  double diff = 0, scale = 0;
+  for (size_t at = 128; at + 8 <= a.size(); at += 8) {
+    double x, y;
+    std::memcpy(&x, a.data() + at, 8);
+    std::memcpy(&y, b.data() + at, 8);
+    diff = std::max(diff, std::abs(x - y));
+    scale = std::max(scale, std::abs(x));
+  }
+  EXPECT_LT(diff, 1e-6 * scale);
+  // No file written twice or left behind as a temp file.
+  size_t files = 0;
+  for (const auto& f : std::filesystem::directory_iterator(dir.file("op"))) {
+    ++files;
+    EXPECT_EQ(f.path().string().find(".tmp"), std::string::npos) << f.path();
+  }
+  EXPECT_EQ(files, 4u); // fem.vtu, lf.npy and its two sidecars
+}
+
+// A failing net under mpirun: rank 0 names the culprit, every rank ends, the exit code is nonzero.
+TEST(EegForward, MpirunFailureEndsEveryRank) {
+  if (!petscAvailable()) GTEST_SKIP() << "built without PETSc (TETFLOW_WITH_PETSC=OFF): not tested";
+  test::TempDir dir;
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "20 17 14 12", 1.0, 3.0);
+  addDipole(net, "fem", "0 0 50", "0 0 1"); // outside the head
+  net.setParameterText("fem", "solver_backend", "petsc");
+  saveNetwork(dir.file("bad.srn"), net);
+  const Cmd r = shell("timeout 120 " + mpirun(2) + " run " + dir.file("bad.srn") + " --output-dir " + dir.file("o"));
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.code, 124) << "timed out: a rank hung\n" << r.out;
+  EXPECT_NE(r.out.find("outside the mesh"), std::string::npos) << r.out;
+}
+#endif
