@@ -27,6 +27,8 @@ public:
     p.solver = solverParamsFrom(ctx);
     p.estimate_condition = ctx.getBool("estimate_condition");
     p.condition.max_dofs = ctx.getInt("max_eigen_dofs");
+    p.condition_numbers = ctx.getBool("condition_numbers");
+    p.injected_current = ctx.getDouble("injected_current");
 
     PoissonResult r = solvePoisson(in, p, ctx.progress());
     Report report;
@@ -94,8 +96,15 @@ void registerAssembleFEMPoisson(ModuleRegistry& r) {
                                 "estimate_condition: above this many unknowns use the Lanczos "
                                 "estimates instead of the eigen solves (0 = no limit)");
   maxDofs.min = 0;
+  ParamSpec condNumbers = makeParam("condition_numbers", ParamType::Bool, true, "",
+                                    "false: skip the condition stage (no kappa; on large meshes it "
+                                    "costs one or two extra CG runs)");
+  ParamSpec inj = makeParam("injected_current", ParamType::Double, 0.0, "mA",
+                            "material_electrodes with two labels (tDCS): the current driven from the "
+                            "higher-potential electrode to the other; the potentials are scaled to "
+                            "it (0 = the potentials as given)");
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5]};
+  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5], condNumbers, inj};
   m.summaryKeys = {"dofs", "nnz", "kappa", "iterations", "relative_residual", "converged"};
   m.factory = [] { return std::make_unique<AssembleFEMPoisson>(); };
   r.add(std::move(m));

@@ -1,5 +1,7 @@
 #include "PoissonProblem.h"
 
+#include "MaterialCurrents.h"
+
 #include <cstdio>
 
 #include <algorithm>
@@ -133,6 +135,8 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
       if (onBoundary[v]) dir.set(v, 0.0);
     break;
   case BoundaryCondition::Electrodes: {
+    if (params.injected_current != 0.0)
+      throw InputError("injected_current: use boundary_condition material_electrodes (two electrode materials)");
     const int ax = params.electrode_axis;
     if (ax < 0 || ax > 2)
       throw InputError("electrode_axis = " + std::to_string(ax) + ": use 0 (x), 1 (y) or 2 (z)");
@@ -171,6 +175,15 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     break;
   }
   case BoundaryCondition::MaterialElectrodes: {
+    if (params.injected_current != 0.0) {
+      if (!std::isfinite(params.injected_current))
+        throw InputError("injected_current: must be a finite number of mA");
+      bool distinct = params.electrode_potentials.size() == 2 &&
+                      params.electrode_potentials.begin()->second != params.electrode_potentials.rbegin()->second;
+      if (!distinct)
+        throw InputError("injected_current: give exactly two electrode materials at different potentials in "
+                         "electrode_potentials (e.g. 5:1; 6:0); the current flows from the first to the second");
+    }
     if (params.electrode_potentials.empty())
       throw InputError("electrode_potentials: give at least one 'label:volts' entry (e.g. 5:1; 6:0) "
                        "for boundary_condition material_electrodes");
@@ -304,7 +317,9 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     what += jacobi ? " on M^-1 K, M = diag(K)" : " on K";
     res.lanczos = lanczosEstimate(solver.lanczos(), what);
   }
-  if (res.dofs > 0) {
+  if (!params.condition_numbers) {
+    for (auto* est : {&res.kappa, &res.kappaJacobi}) est->method = "skipped (condition_numbers = false)";
+  } else if (res.dofs > 0) {
     // A Lanczos run (CG, fixed-seed random right-hand side) with the other preconditioner.
     auto otherLanczos = [&](bool otherJacobi) {
       SolverParams p = params.solver;
@@ -357,7 +372,28 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   // --- fields ---------------------------------------------------------------------------
   t0 = std::chrono::steady_clock::now();
   progress.beginStage("fields");
-  const Eigen::VectorXd u = res.dofs > 0 ? sys.expand(x) : sys.expand(Eigen::VectorXd());
+  Eigen::VectorXd u = res.dofs > 0 ? sys.expand(x) : sys.expand(Eigen::VectorXd());
+  if (!electrodes.empty()) {
+    // Reaction r = K u - f at the fixed vertices = current injected there (mA).
+    Eigen::VectorXd ku;
+    multiplySymmetric(K, u, ku);
+    for (const auto& g : electrodes) {
+      double I = 0.0;
+      for (int32_t v : g.vertices) I += ku[v] - f[v];
+      res.electrodes.push_back({g.name, g.potential, I});
+    }
+  }
+  if (params.injected_current != 0.0) {
+    // f = 0: the solution is linear in the electrode potentials, so scaling it by I / I_0 gives
+    // the electrodes' potentials for the injected current (perfectly conducting electrodes).
+    const auto& first = res.electrodes[0].potential > res.electrodes[1].potential ? res.electrodes[0] : res.electrodes[1];
+    if (!(std::abs(first.current) > 0))
+      throw InputError("injected_current: no current flows between the two electrode materials (they are not "
+                       "connected through the mesh)");
+    res.injectionScale = params.injected_current / first.current;
+    u *= res.injectionScale;
+    for (auto& e : res.electrodes) e.potential *= res.injectionScale, e.current *= res.injectionScale;
+  }
   res.potential.assign(u.data(), u.data() + u.size());
   res.potentialMin = INFINITY;
   res.potentialMax = -INFINITY;
@@ -368,14 +404,9 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     }
   computeFluxFields(mesh, params.conductivities, u, res.gradMagnitude, res.currentDensity);
   if (!electrodes.empty()) {
-    // Reaction r = K u - f at the fixed vertices = current injected there (mA).
-    Eigen::VectorXd ku;
-    multiplySymmetric(K, u, ku);
-    for (const auto& g : electrodes) {
-      double I = 0.0;
-      for (int32_t v : g.vertices) I += ku[v] - f[v];
-      res.electrodes.push_back({g.name, g.potential, I});
-    }
+    res.materialCurrents = materialCurrents(mesh, params.conductivities, u, progress);
+    if (params.boundary == BoundaryCondition::MaterialElectrodes) // electrode materials: the exact reaction
+      for (const auto& e : res.electrodes) res.materialCurrents[std::stoi(e.name.substr(6))] = std::abs(e.current);
   }
   {
     // Swapped, not moved: Eigen 3.4's SparseMatrix has no move constructor (std::move copies).
@@ -450,6 +481,16 @@ void writePoissonReport(const PoissonResult& r, Report& rep) {
     const double I = r.electrodes[0].current;
     const double dU = r.electrodes[0].potential - r.electrodes[1].potential;
     rep.set("resistance", ReportValue(I != 0.0 ? dU / I : INFINITY));
+  }
+  if (r.injectionScale != 1.0 && r.electrodes.size() == 2) { // injected_current: the potentials it needs
+    for (const auto& e : r.electrodes) rep.set("electrode_" + e.name + "_potential", ReportValue(e.potential));
+    rep.set("injection_scale", ReportValue(r.injectionScale));
+  }
+  for (const auto& [label, I] : r.materialCurrents) {
+    std::string key = "material_";
+    key += std::to_string(label);
+    key += "_current";
+    rep.set(key, ReportValue(I));
   }
   if (r.boundary == BoundaryCondition::Dipole) {
     std::string tets;

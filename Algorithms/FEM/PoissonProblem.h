@@ -74,8 +74,11 @@ struct PoissonParams {
   Vec3 dipole_position{0.0, 0.0, 0.0};              // dipole: mm
   Vec3 dipole_moment{0.0, 0.0, 1.0};                // dipole: mA mm
   double dipole_separation = 0.0;                   // dipole: mm (0 = partial-integration limit)
+  double injected_current = 0.0;  // material_electrodes with two labels: mA from the higher-
+                                  // potential electrode to the other (0 = potentials as given)
   SolverParams solver;
   bool estimate_condition = true;  // Spectra eigen solves; false = Lanczos estimates only
+  bool condition_numbers = true;   // false: no condition stage at all (NaN, method says so)
   ConditionParams condition;       // condition.max_dofs: above it, Lanczos estimates (noted)
 };
 
@@ -120,6 +123,8 @@ struct PoissonResult {
     double current = 0.0;
   };
   std::vector<Electrode> electrodes;
+  double injectionScale = 1.0;                   // injected_current / current at potentials given
+  std::map<int32_t, double> materialCurrents;    // electrodes: current through each material (mA)
 
   double assembleSeconds = 0, boundarySeconds = 0, solveSeconds = 0, conditionSeconds = 0,
          fieldsSeconds = 0;
@@ -141,7 +146,9 @@ void addPoissonFields(const PoissonResult& r, TetMesh& mesh);
 // solver_status, kappa, kappa_method, lambda_min, lambda_max, kappa_jacobi, kappa_jacobi_method,
 // lambda_min_jacobi, lambda_max_jacobi, kappa_lanczos, kappa_lanczos_method, potential_min,
 // potential_max, then per electrode `electrode_<name>_current` (mA) and, for `electrodes`,
-// resistance (kOhm = V/mA: potential difference / current of the min electrode); for dipole: dipole_tet, reference_vertex; then assemble_seconds,
+// resistance (kOhm = V/mA: potential difference / current of the min electrode); with
+// injected_current, `electrode_<name>_potential` (V) and injection_scale; for both electrode
+// conditions `material_<label>_current` (mA, MaterialCurrents.h); for dipole: dipole_tet, reference_vertex; then assemble_seconds,
 // boundary_seconds, solve_seconds, condition_seconds, fields_seconds. NaN figures (e.g. an eigen
 // solve that did not converge) are written as NaN doubles; the *_method text says why.
 void writePoissonReport(const PoissonResult& r, Report& report);
