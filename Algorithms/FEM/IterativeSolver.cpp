@@ -147,7 +147,7 @@ void IterativeSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
 int IterativeSolver::ranks() const { return petsc_ ? petsc_->ranks() : 1; }
 
 void IterativeSolver::solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-  if (!petsc_ || !petsc_->sameSystem(*K_, params_)) {
+  if (!petsc_ || !petsc_->sameSystem(*K_, params_)) { // first solve, or other params
     petsc_.reset(); // release the old system on every rank before distributing the new one
     petsc_ = std::make_shared<PetscLinearSolver>(*K_, params_);
   }

@@ -6,7 +6,9 @@
 //           recurrences of their minres.m: Lanczos on M^-1 K, QR of the tridiagonal by Givens
 //           rotations, x updated by a three-term recurrence.
 //   CG      preconditioned conjugate gradients (Hestenes & Stiefel).
-// Preconditioner M = diag(K) (Jacobi) or M = I (none). x0 = 0.
+// Preconditioner M = diag(K) (Jacobi) or M = I (none). x0 = 0. With SolverParams::backend = Petsc
+// the same solvers run in PETSc on every MPI rank (Petsc/PetscLinearSolver.h), with PETSc's AMG
+// preconditioners as further choices.
 //
 // Stopping rule (both solvers): stop after iteration k when the preconditioned residual norm
 //   ||r_k||_{M^-1} = sqrt(r_k^T M^-1 r_k) <= tol * ||b||_{M^-1}      (r_k = b - K x_k),
@@ -99,7 +101,10 @@ public:
   const SolverParams& params() const { return params_; }
   // K must be square, symmetric with both triangles stored, compressed, and outlive solve().
   // With the Jacobi preconditioner every diagonal entry must be > 0 (checked in solve()).
-  void setOperator(const SparseMatrix& K) { K_ = &K; }
+  void setOperator(const SparseMatrix& K) {
+    K_ = &K;
+    petsc_.reset(); // a new operator (even at the same address) is distributed again
+  }
   void setMonitor(Monitor m) { monitor_ = std::move(m); }
   void setProgress(Progress* p) { progress_ = p; }
 

@@ -16,11 +16,13 @@
 // alone and no file is written twice.
 //
 // Solvers and stopping rule: KSPMINRES or KSPCG with PCJACOBI (M = diag K), PCNONE, PCGAMG or
-// PCHYPRE (BoomerAMG). x0 = 0; stop when ||r_k||_{M^-1} <= tol ||b||_{M^-1}: KSPMINRES measures
-// that norm by its recurrence (KSP_NORM_PRECONDITIONED is the natural norm for MINRES), KSPCG is
-// set to KSP_NORM_NATURAL (sqrt(r^T M^-1 r)); the test is PETSc's default with rtol = tol,
-// atol = 0, dtol off, so iteration counts agree with the Eigen path up to rounding. PETSc options
-// from SolverParams::petsc_options and the PETSC_OPTIONS environment variable (e.g. "-ksp_view",
+// PCHYPRE (BoomerAMG with hypre's 3-D settings: HMIS coarsening, ext+i interpolation, strong
+// threshold 0.5, P_max 4, one level of aggressive coarsening). x0 = 0; stop when
+// ||r_k||_{M^-1} <= tol ||b||_{M^-1}: KSPMINRES measures that norm by its recurrence
+// (KSP_NORM_PRECONDITIONED is the natural norm for MINRES), KSPCG is set to KSP_NORM_NATURAL
+// (sqrt(r^T M^-1 r)); the test is PETSc's default with rtol = tol, atol = 0, dtol off, so
+// iteration counts agree with the Eigen path up to rounding. PETSc options from
+// SolverParams::petsc_options and the PETSC_OPTIONS environment variable (e.g. "-ksp_view",
 // "-ksp_monitor", "-pc_gamg_threshold 0.02") are applied after these settings and override them.
 //
 // Failures: a PETSc error with one rank throws ProcessingError naming the call and PETSc's
