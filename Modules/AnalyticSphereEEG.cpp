@@ -48,21 +48,16 @@ public:
     const Vec3 mom = parseVec3(ctx.getString("dipole_moment"), "dipole_moment");
 
     // Electrodes: every boundary vertex, or the file's positions snapped to the nearest one.
-    const std::vector<uint8_t> onBoundary = boundaryVertexFlags(in);
-    std::vector<int32_t> boundary, electrodes;
-    for (size_t v = 0; v < onBoundary.size(); ++v)
-      if (onBoundary[v]) boundary.push_back(int32_t(v));
-    if (boundary.empty()) throw InputError("mesh: no boundary vertices (no tets?)");
+    std::vector<int32_t> electrodes;
     if (ctx.getString("electrodes_file").empty()) {
-      electrodes = boundary;
+      const std::vector<uint8_t> onBoundary = boundaryVertexFlags(in);
+      for (size_t v = 0; v < onBoundary.size(); ++v)
+        if (onBoundary[v]) electrodes.push_back(int32_t(v));
+      if (electrodes.empty()) throw InputError("mesh: no boundary vertices (no tets?)");
     } else {
-      for (const Electrode& e : readElectrodes(ctx.getPath("electrodes_file"), 0.0)) {
-        double best = INFINITY;
-        int32_t bv = boundary[0];
-        for (int32_t v : boundary)
-          if (double d = norm(in.points[size_t(v)] - e.position); d < best) best = d, bv = v;
-        electrodes.push_back(bv);
-      }
+      std::vector<Vec3> given;
+      for (const Electrode& e : readElectrodes(ctx.getPath("electrodes_file"), 0.0)) given.push_back(e.position);
+      for (const SurfaceSnap& s : snapToBoundary(in, given)) electrodes.push_back(s.vertex);
     }
     std::vector<Vec3> where;
     for (int32_t v : electrodes) where.push_back(in.points[size_t(v)] - center);

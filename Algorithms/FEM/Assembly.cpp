@@ -89,6 +89,23 @@ std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh) {
   return flags;
 }
 
+std::vector<SurfaceSnap> snapToBoundary(const TetMesh& mesh, const std::vector<Vec3>& positions) {
+  const std::vector<uint8_t> onBoundary = boundaryVertexFlags(mesh);
+  std::vector<int32_t> boundary;
+  for (size_t v = 0; v < onBoundary.size(); ++v)
+    if (onBoundary[v]) boundary.push_back(int32_t(v));
+  if (boundary.empty()) throw InputError("mesh: no boundary vertices to snap electrodes to (no tets?)");
+  std::vector<SurfaceSnap> snaps(positions.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < int64_t(positions.size()); ++i) {
+    SurfaceSnap best{boundary[0], std::numeric_limits<double>::infinity()};
+    for (int32_t v : boundary)
+      if (const double d = norm(mesh.points[size_t(v)] - positions[size_t(i)]); d < best.distance) best = {v, d};
+    snaps[size_t(i)] = best;
+  }
+  return snaps;
+}
+
 std::vector<int32_t> vertexComponents(const TetMesh& mesh, int32_t& count) {
   const size_t np = mesh.numPoints();
   std::vector<int32_t> parent(np);

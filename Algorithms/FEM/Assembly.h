@@ -45,6 +45,14 @@ void checkTetVolumes(const TetMesh& mesh);
 // else 0. Vertices used by no tet are 0. Parallel over vertices, from their stars (VertexStars.h).
 std::vector<uint8_t> boundaryVertexFlags(const TetMesh& mesh);
 
+// Electrodes on the surface: for each position, the nearest boundary vertex (lowest index on ties)
+// and its distance (mm). Parallel over the positions. InputError when the mesh has no boundary.
+struct SurfaceSnap {
+  int32_t vertex = -1;
+  double distance = 0.0;
+};
+std::vector<SurfaceSnap> snapToBoundary(const TetMesh& mesh, const std::vector<Vec3>& positions);
+
 // Connected components of the tets (two tets are connected when they share a vertex):
 // component id per vertex, -1 for vertices used by no tet; ids are 0.. in order of the lowest
 // vertex index of each component. `count` receives the number of components.

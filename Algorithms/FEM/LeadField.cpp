@@ -87,21 +87,13 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
 
   // --- snap electrodes to the nearest boundary vertex ---
   progress.beginStage("snap electrodes");
-  const std::vector<uint8_t> onBoundary = boundaryVertexFlags(mesh);
-  std::vector<int32_t> boundary;
-  for (size_t v = 0; v < np; ++v)
-    if (onBoundary[v]) boundary.push_back(int32_t(v));
   for (const Electrode& e : params.electrodes) {
-    double best = std::numeric_limits<double>::infinity();
-    int32_t bv = -1;
-    for (int32_t v : boundary) {
-      const double d = norm(mesh.points[size_t(v)] - e.position);
-      if (d < best) best = d, bv = v;
-    }
     res.names.push_back(e.name);
     res.given.push_back(e.position);
-    res.vertex.push_back(bv);
-    res.snapDistance.push_back(best);
+  }
+  for (const SurfaceSnap& s : snapToBoundary(mesh, res.given)) {
+    res.vertex.push_back(s.vertex);
+    res.snapDistance.push_back(s.distance);
   }
   for (size_t a = 0; a < ne; ++a)
     for (size_t b = a + 1; b < ne; ++b)
