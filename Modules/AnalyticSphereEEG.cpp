@@ -16,33 +16,14 @@
 namespace tetflow {
 
 namespace {
-std::vector<double> numbers(const std::string& text, const std::string& what) {
-  std::vector<double> v;
-  std::istringstream s(text);
-  std::string w;
-  while (s >> w) {
-    size_t used = 0;
-    double x = 0;
-    try {
-      x = std::stod(w, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != w.size() || !std::isfinite(x))
-      throw InputError(what + ": '" + w + "' is not a number (give numbers separated by spaces)");
-    v.push_back(x);
-  }
-  return v;
-}
-
 class AnalyticSphereEEG : public Module {
 public:
   void execute(ExecutionContext& ctx) override {
     const TetMesh& in = ctx.inputAs<TetMeshData>(0).value;
     in.validateStructure("mesh");
     SphereShells shells;
-    shells.radii = numbers(ctx.getString("radii"), "radii");
-    shells.conductivities = numbers(ctx.getString("sphere_conductivities"), "sphere_conductivities");
+    shells.radii = parseNumbers(ctx.getString("radii"), "radii");
+    shells.conductivities = parseNumbers(ctx.getString("sphere_conductivities"), "sphere_conductivities");
     const Vec3 center = parseVec3(ctx.getString("center"), "center");
     const Vec3 pos = parseVec3(ctx.getString("dipole_position"), "dipole_position") - center;
     const Vec3 mom = parseVec3(ctx.getString("dipole_moment"), "dipole_moment");

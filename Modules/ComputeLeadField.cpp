@@ -23,18 +23,7 @@ public:
       throw InputError("electrodes_file: give the electrode positions (.csv/.tsv/.txt name,x,y,z in mm, .elc or .sfp)");
     p.electrodes = readElectrodes(efile, ctx.getDouble("electrode_unit_scale"));
     p.reference = ctx.getString("reference");
-    for (const std::string& item : ctx.getList("source_labels")) {
-      size_t used = 0;
-      int32_t l = 0;
-      try {
-        l = int32_t(std::stol(item, &used));
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || used != item.size())
-        throw InputError("source_labels: '" + item + "' is not an integer label (e.g. 4 for the brain)");
-      p.sourceLabels.push_back(l);
-    }
+    p.sourceLabels = parseLabels(ctx.getList("source_labels"), "source_labels");
     if (!ctx.getString("sources_file").empty())
       for (const Electrode& e : readElectrodes(ctx.getPath("sources_file"), 0.0)) p.sourcePoints.push_back(e.position);
     p.solver = solverParamsFrom(ctx);

@@ -200,6 +200,27 @@ std::map<int32_t, double> parseLabelValues(const std::vector<std::string>& items
   return out;
 }
 
+std::vector<double> parseNumbers(const std::string& text, const std::string& what) {
+  std::vector<double> v;
+  for (const std::string& tok : splitNumbers(text)) {
+    double x = 0;
+    if (!parseNumber(tok, x))
+      throw InputError(what + ": '" + tok + "' is not a finite number (give numbers separated by spaces)");
+    v.push_back(x);
+  }
+  return v;
+}
+
+std::vector<int32_t> parseLabels(const std::vector<std::string>& items, const std::string& what) {
+  std::vector<int32_t> out;
+  for (const std::string& item : items) {
+    int32_t l = 0;
+    if (!parseLabel(item, l)) throw InputError(what + ": '" + item + "' is not an integer label");
+    out.push_back(l);
+  }
+  return out;
+}
+
 Vec3 parseVec3(const std::string& text, const std::string& what) {
   const auto toks = splitNumbers(text);
   Vec3 v{0, 0, 0};

@@ -56,6 +56,11 @@ ConductivityTable parseConductivities(const std::vector<std::string>& items, dou
 // InputErrors.
 std::map<int32_t, double> parseLabelValues(const std::vector<std::string>& items, const std::string& what);
 
+// Any count of numbers separated by spaces and/or commas; InputError naming `what` and the token.
+std::vector<double> parseNumbers(const std::string& text, const std::string& what);
+// List items that are integer labels (e.g. "4"); InputError naming `what` and the item.
+std::vector<int32_t> parseLabels(const std::vector<std::string>& items, const std::string& what);
+
 // Parse three numbers "x y z" (spaces and/or commas). InputError naming `what` otherwise.
 Vec3 parseVec3(const std::string& text, const std::string& what);
 

@@ -127,6 +127,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     std::string name;
     double potential;
     std::vector<int32_t> vertices;
+    int32_t label = -1;
   };
   std::vector<Group> electrodes;
   switch (params.boundary) {
@@ -212,7 +213,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
       }
     }
     for (auto& [l, vs] : groups)
-      electrodes.push_back({"label_" + std::to_string(l), params.electrode_potentials.at(l), std::move(vs)});
+      electrodes.push_back({"label_" + std::to_string(l), params.electrode_potentials.at(l), std::move(vs), l});
     break;
   }
   case BoundaryCondition::Dipole:
@@ -380,7 +381,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     for (const auto& g : electrodes) {
       double I = 0.0;
       for (int32_t v : g.vertices) I += ku[v] - f[v];
-      res.electrodes.push_back({g.name, g.potential, I});
+      res.electrodes.push_back({g.name, g.potential, I, g.label});
     }
   }
   if (params.injected_current != 0.0) {
@@ -390,6 +391,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
     if (!(std::abs(first.current) > 0))
       throw InputError("injected_current: no current flows between the two electrode materials (they are not "
                        "connected through the mesh)");
+    res.injectedCurrent = params.injected_current;
     res.injectionScale = params.injected_current / first.current;
     u *= res.injectionScale;
     for (auto& e : res.electrodes) e.potential *= res.injectionScale, e.current *= res.injectionScale;
@@ -406,7 +408,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   if (!electrodes.empty()) {
     res.materialCurrents = materialCurrents(mesh, params.conductivities, u, progress);
     if (params.boundary == BoundaryCondition::MaterialElectrodes) // electrode materials: the exact reaction
-      for (const auto& e : res.electrodes) res.materialCurrents[std::stoi(e.name.substr(6))] = std::abs(e.current);
+      for (const auto& e : res.electrodes) res.materialCurrents[e.label] = std::abs(e.current);
   }
   {
     // Swapped, not moved: Eigen 3.4's SparseMatrix has no move constructor (std::move copies).
@@ -482,7 +484,7 @@ void writePoissonReport(const PoissonResult& r, Report& rep) {
     const double dU = r.electrodes[0].potential - r.electrodes[1].potential;
     rep.set("resistance", ReportValue(I != 0.0 ? dU / I : INFINITY));
   }
-  if (r.injectionScale != 1.0 && r.electrodes.size() == 2) { // injected_current: the potentials it needs
+  if (r.injectedCurrent != 0.0) { // the electrodes' potentials for that current
     for (const auto& e : r.electrodes) rep.set("electrode_" + e.name + "_potential", ReportValue(e.potential));
     rep.set("injection_scale", ReportValue(r.injectionScale));
   }

@@ -121,8 +121,10 @@ struct PoissonResult {
     std::string name;
     double potential = 0.0;
     double current = 0.0;
+    int32_t label = -1; // material_electrodes: the electrode's material label
   };
   std::vector<Electrode> electrodes;
+  double injectedCurrent = 0.0;                  // injected_current (mA; 0 = not used)
   double injectionScale = 1.0;                   // injected_current / current at potentials given
   std::map<int32_t, double> materialCurrents;    // electrodes: current through each material (mA)
 

@@ -256,6 +256,7 @@ TEST(EegForward, LeadFieldSourcesFromLabelsAndErrors) {
     EXPECT_NE(e.state("lf")->error.find(fragment), std::string::npos) << e.state("lf")->error;
   };
   fails("source_labels", "9", "label 9 is not in the mesh");
+  fails("source_labels", "brain", "'brain' is not an integer label");
   net.setParameterText("lf", "source_labels", "4");
   fails("reference", "Cz", "reference 'Cz' is not an electrode name");
   net.setParameterText("lf", "reference", "average");

@@ -260,7 +260,6 @@ struct Engine {
     PetscInt nh = 0;
     TF_PETSC(KSPGetResidualHistory(ksp, &h, &nh));
     out->iterations = its;
-    out->reason = KSPConvergedReasons[reason];
     out->history.clear();
     for (PetscInt k = 0; k < nh; ++k) out->history.push_back(h[0] > 0 ? double(h[k] / h[0]) : 0.0);
     if (out->history.empty()) out->history.push_back(1.0);

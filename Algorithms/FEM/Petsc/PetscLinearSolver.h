@@ -52,7 +52,6 @@ public:
     int64_t iterations = 0;
     double relativeResidual = 0.0;  // last ||r||_{M^-1} / ||b||_{M^-1}
     std::vector<double> history;    // relative, entry 0 = 1
-    std::string reason;             // PETSc's KSPConvergedReason name
   };
   // Collective: distributes K (square, both triangles, compressed) and sets up the KSP on every
   // rank. Only rank 0 constructs one (the workers follow in runPetscWorker).

@@ -305,4 +305,11 @@ TEST(FemConductivity, BadTextIsAnInputErrorNamingTheEntry) {
   EXPECT_THROW_MSG(parseConductivities({}, 0.0), InputError, "default_conductivity");
   EXPECT_THROW_MSG(parseLabelValues({"5:x"}, "electrode_potentials"), InputError, "electrode_potentials", "'x'");
   EXPECT_THROW_MSG(parseVec3("1 2", "dipole_moment"), InputError, "dipole_moment", "three");
+  EXPECT_EQ(parseNumbers("78, 80 86  92", "radii"), (std::vector<double>{78, 80, 86, 92}));
+  EXPECT_TRUE(parseNumbers("  ", "radii").empty());
+  EXPECT_THROW_MSG(parseNumbers("78 80 x", "radii"), InputError, "radii", "'x'", "not a finite number");
+  EXPECT_THROW_MSG(parseNumbers("1 inf", "radii"), InputError, "'inf'");
+  EXPECT_EQ(parseLabels({"4", " -2 "}, "source_labels"), (std::vector<int32_t>{4, -2}));
+  EXPECT_THROW_MSG(parseLabels({"brain"}, "source_labels"), InputError, "source_labels", "'brain'", "integer label");
+  EXPECT_THROW_MSG(parseLabels({"4000000000"}, "source_labels"), InputError, "'4000000000'");
 }
