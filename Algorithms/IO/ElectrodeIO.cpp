@@ -8,6 +8,7 @@
 
 #include "../Core/Errors.h"
 #include "FileUtil.h"
+#include "HeaderText.h"
 
 namespace tetflow {
 namespace {
@@ -18,25 +19,6 @@ constexpr size_t kMaxElectrodes = 1000000;
 bool isBlank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 bool isControl(char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && isBlank(s.front())) s.remove_prefix(1);
-  while (!s.empty() && isBlank(s.back())) s.remove_suffix(1);
-  return s;
-}
-
-std::string lower(std::string_view s) {
-  std::string r(s);
-  for (char& c : r) c = (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
-  return r;
-}
-
-// A token for a message: quoted, at most 40 bytes, control bytes shown as '?'.
-std::string show(std::string_view s) {
-  std::string r = "'";
-  for (size_t i = 0; i < s.size() && i < 40; ++i) r += isControl(s[i]) ? '?' : s[i];
-  return r + (s.size() > 40 ? "...'" : "'");
-}
-
 std::string num(double v) {
   char b[32];
   return std::string(b, std::to_chars(b, b + sizeof b, v).ptr);
@@ -45,10 +27,9 @@ std::string num(double v) {
 // A finite decimal number (an optional leading '+' allowed), stored in *out when given.
 bool isNumber(std::string_view t, double* out = nullptr) {
   double v = 0;
-  if (!t.empty() && t.front() == '+') t.remove_prefix(1);
-  const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+  const bool ok = headertext::parseDouble(t, v) && std::isfinite(v);
   if (out) *out = v;
-  return r.ec == std::errc() && r.ptr == t.data() + t.size() && std::isfinite(v);
+  return ok;
 }
 
 // Fields of a line split at `sep`, or at runs of blanks when sep == 0; at most maxFields + 1 are
@@ -60,7 +41,7 @@ std::vector<std::string_view> split(std::string_view l, char sep, size_t maxFiel
     if (sep == 0 && i == l.size()) break;
     size_t j = i;
     while (j < l.size() && (sep ? l[j] != sep : !isBlank(l[j]))) ++j;
-    std::string_view t = trim(l.substr(i, j - i));
+    std::string_view t = headertext::trim(l.substr(i, j - i));
     if (t.size() >= 2 && t.front() == '"' && t.back() == '"') t = t.substr(1, t.size() - 2);
     f.push_back(t);
     i = j + 1;
@@ -95,7 +76,7 @@ public:
   bool next(Line& l) {
     while (!rest_.empty()) {
       const size_t eol = std::min(rest_.find('\n'), rest_.size());
-      l = {trim(rest_.substr(0, eol)), ++no_};
+      l = {headertext::trim(rest_.substr(0, eol)), ++no_};
       rest_.remove_prefix(std::min(eol + 1, rest_.size()));
       if (!l.text.empty() && l.text.front() != '#') return true;
     }
@@ -112,7 +93,7 @@ public:
       const std::string_view t = f[first + a];
       if (!isNumber(t, &p[a]))
         fail(line, std::string("expected a finite number as the ") + "xyz"[a] +
-                       " coordinate, found " + show(t) +
+                       " coordinate, found " + headertext::shown(t) +
                        (t.find(',') != t.npos ? " (use '.' as the decimal point)" : ""));
     }
     return p;
@@ -123,11 +104,11 @@ public:
     if (name.empty()) fail(nameLine, "the electrode name is empty; give every electrode a name");
     if (std::any_of(name.begin(), name.end(), isControl))
       fail(nameLine,
-           "the electrode name " + show(name) + " contains control characters (not a text file?)");
+           "the electrode name " + headertext::shown(name) + " contains control characters (not a text file?)");
     if (out_.size() >= kMaxElectrodes) fail(line, "too many electrodes (wrong file?)");
     const auto [it, fresh] = seen_.emplace(std::string(name), nameLine);
     if (!fresh)
-      fail(nameLine, "electrode name " + show(name) + " is used again (first on line " +
+      fail(nameLine, "electrode name " + headertext::shown(name) + " is used again (first on line " +
                          std::to_string(it->second) + "); names must be unique: rename one");
     out_.push_back({std::string(name), p, line});
   }
@@ -178,7 +159,7 @@ std::vector<Electrode> readDelimited(Reader& r, double scale) {
     if ((f.size() != 3 && f.size() != 4) || (f.size() == 3 && !isNumber(f[0])))
       r.fail(l.no, "expected 'name, x, y, z' or 'x, y, z' separated by " + sepName +
                        " (as on the first data line), found " + countOf(f) +
-                       (f.size() == 3 ? ", the first, " + show(f[0]) + ", not a number" : ""));
+                       (f.size() == 3 ? ", the first, " + headertext::shown(f[0]) + ", not a number" : ""));
     const Vec3 p = r.coords(f, f.size() - 3, l.no);
     std::string name = "E"; // x, y, z only (two steps: GCC 12 warns falsely on "E" + string)
     name += std::to_string(r.count() + 1);
@@ -191,9 +172,9 @@ std::vector<Electrode> readDelimited(Reader& r, double scale) {
 std::string elcKey(std::string_view t, std::string_view* value = nullptr) {
   size_t k = 0;
   while (k < t.size() && !isBlank(t[k]) && t[k] != '=') ++k;
-  std::string_view v = trim(t.substr(k));
-  if (value) *value = trim(v.substr(!v.empty() && v.front() == '=' ? 1 : 0));
-  return lower(t.substr(0, k));
+  std::string_view v = headertext::trim(t.substr(k));
+  if (value) *value = headertext::trim(v.substr(!v.empty() && v.front() == '=' ? 1 : 0));
+  return headertext::canonical(t.substr(0, k));
 }
 
 std::vector<Electrode> readElc(Reader& r, double unitScale) {
@@ -223,7 +204,7 @@ std::vector<Electrode> readElc(Reader& r, double unitScale) {
       const size_t colon = l.text.find(':');
       const bool labelled = colon != l.text.npos;
       auto f = split(labelled ? l.text.substr(colon + 1) : l.text, 0);
-      std::string_view label = labelled ? trim(l.text.substr(0, colon)) : std::string_view();
+      std::string_view label = labelled ? headertext::trim(l.text.substr(0, colon)) : std::string_view();
       if (!labelled && f.size() == 4) {
         label = f[0];
         f.erase(f.begin());
@@ -240,13 +221,13 @@ std::vector<Electrode> readElc(Reader& r, double unitScale) {
       once(countLine, l, "NumberPositions");
       const auto res = std::from_chars(val.data(), val.data() + val.size(), announced);
       if (res.ec != std::errc() || res.ptr != val.data() + val.size() || announced < 0)
-        r.fail(l.no, "expected 'NumberPositions= N' with a whole number N, found " + show(val));
+        r.fail(l.no, "expected 'NumberPositions= N' with a whole number N, found " + headertext::shown(val));
     } else if (key == "unitposition") {
       once(unitLine, l, "UnitPosition");
-      const std::string u = lower(val);
+      const std::string u = headertext::canonical(val);
       scale = u == "mm" ? 1.0 : u == "cm" ? 10.0 : u == "m" ? 1000.0 : 0.0;
       if (scale == 0.0 && unitScale == 0.0)
-        r.fail(l.no, "unknown UnitPosition " + show(val) +
+        r.fail(l.no, "unknown UnitPosition " + headertext::shown(val) +
                          "; use mm, cm or m (or give the scale to mm explicitly)");
     } else if (key == "positions" && val.empty()) {
       once(posLine, l, "the Positions section");
@@ -284,7 +265,7 @@ std::vector<Electrode> readSfp(Reader& r, double scale) {
     if (f.size() != 4)
       r.fail(l.no, "expected 'name x y z' separated by blanks, found " + countOf(f));
     const Vec3 p = r.coords(f, 1, l.no);
-    if (lower(f[0].substr(0, 3)) != "fid") r.add(f[0], p, l.no, l.no); // fiducials are skipped
+    if (headertext::canonical(f[0].substr(0, 3)) != "fid") r.add(f[0], p, l.no, l.no); // fiducials are skipped
   }
   return r.finish(scale, " and fiducials");
 }
