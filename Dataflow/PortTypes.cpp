@@ -1,5 +1,7 @@
 #include "PortTypes.h"
 
+#include "Algorithms/CAD/CadModel.h"
+
 #include <sstream>
 
 namespace tetflow {
@@ -10,7 +12,8 @@ constexpr std::pair<PortType, const char*> kPortNames[] = {
     {PortType::LabelVolume, "LabelVolume"}, {PortType::ScalarVolume, "ScalarVolume"},
     {PortType::Materials, "Materials"},     {PortType::TetMesh, "TetMesh"},
     {PortType::Matrix, "Matrix"},           {PortType::Vector, "Vector"},
-    {PortType::Report, "Report"},           {PortType::DenseMatrix, "DenseMatrix"}};
+    {PortType::Report, "Report"},           {PortType::DenseMatrix, "DenseMatrix"},
+    {PortType::CADModel, "CADModel"}};
 
 std::string gridSummary(const GridGeometry& g) {
   std::ostringstream s;
@@ -73,6 +76,15 @@ std::string DenseMatrixData::summary() const {
   if (!value) return "DenseMatrix: none";
   std::ostringstream s;
   s << "DenseMatrix " << value->rows() << "x" << value->cols();
+  return s.str();
+}
+
+template <>
+std::string CadModelData::summary() const {
+  if (!value) return "CADModel: none";
+  std::ostringstream s;
+  s << "CADModel " << value->solids().size() << " solid(s), " << value->patches().size() << " patches, "
+    << value->curves().size() << " curves";
   return s.str();
 }
 

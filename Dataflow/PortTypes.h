@@ -16,6 +16,10 @@
 #include "Algorithms/Core/Volume.h"
 
 namespace tetflow {
+class CadModel; // Algorithms/CAD/CadModel.h
+}
+
+namespace tetflow {
 
 // Stable values: they appear in saved files and tool output.
 enum class PortType : int {
@@ -26,7 +30,8 @@ enum class PortType : int {
   Matrix = 4,
   Vector = 5,
   Report = 6,
-  DenseMatrix = 7
+  DenseMatrix = 7,
+  CADModel = 8
 };
 const char* portTypeName(PortType t);
 std::optional<PortType> portTypeFromName(const std::string& name);
@@ -69,6 +74,8 @@ using MaterialsData = DataOf<std::shared_ptr<const MaterialSet>, PortType::Mater
 using MatrixData = DataOf<std::shared_ptr<const Eigen::SparseMatrix<double>>, PortType::Matrix>;
 // A dense matrix (e.g. ComputeLeadField's lead field, electrodes x 3 sources); shared, immutable.
 using DenseMatrixData = DataOf<std::shared_ptr<const Eigen::MatrixXd>, PortType::DenseMatrix>;
+// A B-rep CAD model (ReadCADModel); shared, immutable.
+using CadModelData = DataOf<std::shared_ptr<const CadModel>, PortType::CADModel>;
 template <> std::string LabelVolumeData::summary() const;
 template <> std::string ScalarVolumeData::summary() const;
 template <> std::string TetMeshData::summary() const;
@@ -76,6 +83,7 @@ template <> std::string ReportData::summary() const;
 template <> std::string MaterialsData::summary() const;
 template <> std::string MatrixData::summary() const;
 template <> std::string DenseMatrixData::summary() const;
+template <> std::string CadModelData::summary() const;
 
 template <class D, class T>
 std::shared_ptr<const D> makeData(T&& value) {

@@ -19,6 +19,8 @@ void registerStandardModules(ModuleRegistry& r) {
   registerAssembleFEMPoisson(r);
   registerComputeLeadField(r);
   registerAnalyticSphereEEG(r);
+  registerReadCADModel(r);
+  registerMeshCADSurface(r);
 }
 
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma) {

@@ -21,6 +21,8 @@ packages=(
   libvtk9-dev libeigen3-dev libboost-dev libboost-program-options-dev
   libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev libpugixml-dev
   libpetsc-real-dev openmpi-bin
+  libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev
+  libocct-data-exchange-dev libocct-ocaf-dev libocct-visualization-dev
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core
 )
 # --deps-only PKG...: these too (scripts/fuzz.sh passes clang's).

@@ -5,6 +5,11 @@
 
 namespace tetflow {
 
+// A point (or vector) in a 2-D plane, e.g. a surface patch's parameters (u, v) = (x, y).
+struct Point2 {
+  double x = 0, y = 0;
+};
+
 using Vec3 = std::array<double, 3>;
 using Mat3 = std::array<std::array<double, 3>, 3>; // row-major: m[row][col]
 

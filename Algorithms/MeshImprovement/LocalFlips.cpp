@@ -255,6 +255,10 @@ bool Improver::splitEdge(int32_t t, std::vector<int32_t>& touched) {
         s.tets.push_back(nt);
         s.mats.push_back(m_.materials[r]);
       }
+    if (p_.fixSurfaces && classify(mid, s).dof != 3) { // the edge is on a kept surface
+      m_.points.pop_back();
+      continue;
+    }
     Vec3 pos;
     std::vector<double> delta;
     const double after = optimizePosition(mid, s, pos, delta);

@@ -103,6 +103,7 @@ Constraint Improver::classify(int32_t v, const LocalStar& s) const {
     }
     i = j;
   }
+  if (p_.fixSurfaces && (!boundary.empty() || mats.size() > 1)) return {}; // on a kept surface
   Constraint c;
   c.keepAxes = axisAlignedBits(boundary);
   auto unit = [](const Vec3& d) { return (1.0 / norm(d)) * d; };

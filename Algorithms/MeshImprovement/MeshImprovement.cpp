@@ -224,7 +224,7 @@ bool Improver::improveTet(int32_t t, std::vector<int32_t>& touched) {
       if (score(m_.tets[size_t(t)]) >= goal_) return true;
     }
   }
-  if (p_.peel && peelCap(t, touched)) return true;
+  if (p_.peel && !p_.fixSurfaces && peelCap(t, touched)) return true;
   if (p_.flip) {
     const Tet q = m_.tets[size_t(t)];
     for (const auto& [i, j] : kTetEdges)
@@ -234,7 +234,7 @@ bool Improver::improveTet(int32_t t, std::vector<int32_t>& touched) {
   }
   if (p_.collapse && collapseInto(t, touched)) return true;
   if (p_.insert && splitEdge(t, touched)) return true;
-  if (p_.flip) { // moving an interface
+  if (p_.flip && !p_.fixSurfaces) { // moving an interface
     const Tet q = m_.tets[size_t(t)];
     for (const auto& [i, j] : kTetEdges)
       if (removeEdge(q[size_t(i)], q[size_t(j)], true, touched)) return true;

@@ -75,6 +75,10 @@ struct ImproveParams {
   double max_volume_change = 0.05; // percent: net change allowed per material
   int passes = 6;                  // passes over the remaining bad tets
   bool smooth = true, flip = true, collapse = true, insert = true, peel = true;
+  // Keep every boundary and interface face as it is: vertices on them do not move, no edge on
+  // them is split, no interface edge is removed, no cap is peeled. For meshes whose surface was
+  // placed on a CAD model's patches (MeshCADSurface), so that it stays there.
+  bool fixSurfaces = false;
 };
 
 struct ImproveTet {  // a tet that still misses the target after improvement

@@ -19,6 +19,7 @@ inline QColor portColor(PortType t) {
     case PortType::Vector: return QColor(60, 200, 210);        // cyan
     case PortType::Report: return QColor(200, 200, 200);       // grey
     case PortType::DenseMatrix: return QColor(40, 80, 170);    // dark blue
+    case PortType::CADModel: return QColor(200, 90, 120);      // rose
   }
   return Qt::white;
 }
