@@ -17,6 +17,7 @@ public:
     Report& r = ctx.report();
     r.set("file", path);
     r.set("solids", model->solids().size());
+    r.set("solids_in_file", model->solidsInFile());
     r.set("patches", model->patches().size());
     r.set("curves", model->curves().size());
     r.set("corners", model->corners().size());

@@ -2,6 +2,7 @@
 #include "CadModel.h"
 
 #include <BRepAdaptor_Surface.hxx>
+#include <BRepAlgoAPI_BuilderAlgo.hxx>
 #include <BRepBndLib.hxx>
 #include <BRepCheck_Analyzer.hxx>
 #include <BRepClass3d_SolidClassifier.hxx>
@@ -33,6 +34,7 @@
 #include <TopExp.hxx>
 #include <TopExp_Explorer.hxx>
 #include <TopTools_IndexedMapOfShape.hxx>
+#include <TopTools_ListOfShape.hxx>
 #include <TopoDS.hxx>
 #include <TopoDS_Edge.hxx>
 #include <TopoDS_Face.hxx>
@@ -163,6 +165,30 @@ std::shared_ptr<const CadModel> CadModel::fromShape(const void* topoDsShape, con
     I.shape = input;
     BRepLib::BuildCurves3d(I.shape); // edges known only by their pcurves get a 3-D curve
     TopExp::MapShapes(I.shape, TopAbs_SOLID, I.solidMap);
+    model->solidsInFile_ = I.solidMap.Extent();
+    if (I.solidMap.Extent() > 1) {
+      // Glue the solids (OpenCASCADE's general fuse): where they touch they then share faces,
+      // which one conforming mesh needs (a STEP assembly repeats a shared face in each solid);
+      // where they overlap, the overlap becomes a solid of its own.
+      TopTools_ListOfShape args;
+      for (int s = 1; s <= I.solidMap.Extent(); ++s) args.Append(I.solidMap(s));
+      BRepAlgoAPI_BuilderAlgo gf;
+      gf.SetArguments(args);
+      gf.SetFuzzyValue(1e-7 * std::max(1.0, [&] {
+        Bnd_Box b;
+        BRepBndLib::Add(I.shape, b);
+        return std::sqrt(b.SquareExtent());
+      }()));
+      gf.SetRunParallel(false);
+      gf.Build();
+      if (gf.HasErrors() || gf.Shape().IsNull())
+        throw InputError(where + " has " + std::to_string(I.solidMap.Extent()) +
+                         " solids that OpenCASCADE's general fuse could not glue into one conforming "
+                         "model; fuse or separate them in the CAD program");
+      I.shape = gf.Shape();
+      I.solidMap.Clear();
+      TopExp::MapShapes(I.shape, TopAbs_SOLID, I.solidMap);
+    }
     if (I.solidMap.Extent() == 0) {
       TopTools_IndexedMapOfShape faces;
       TopExp::MapShapes(I.shape, TopAbs_FACE, faces);

@@ -73,6 +73,11 @@ public:
   CadModel& operator=(const CadModel&) = delete;
 
   const std::string& source() const { return source_; }
+  // Solids in the file. With more than one, the model is their general fuse (OpenCASCADE's
+  // BRepAlgoAPI_BuilderAlgo): solids that touch share the faces where they touch (as a STEP
+  // assembly does not), and an overlap of two solids becomes a solid of its own, so solids()
+  // can hold more than the file.
+  int solidsInFile() const { return solidsInFile_; }
   const std::vector<Vec3>& corners() const { return corners_; }
   const std::vector<CadCurve>& curves() const { return curves_; }
   const std::vector<CadPatch>& patches() const { return patches_; }
@@ -116,6 +121,7 @@ private:
   CadModel();
   std::unique_ptr<Impl> impl_;
   std::string source_;
+  int solidsInFile_ = 0;
   std::vector<Vec3> corners_;
   std::vector<CadCurve> curves_;
   std::vector<CadPatch> patches_;

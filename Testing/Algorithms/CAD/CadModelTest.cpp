@@ -5,6 +5,7 @@
 #include <BRep_Builder.hxx>
 #include <TopExp_Explorer.hxx>
 #include <TopoDS.hxx>
+#include <TopoDS_Compound.hxx>
 #include <TopoDS_Shell.hxx>
 #include <gtest/gtest.h>
 
@@ -154,4 +155,36 @@ TEST(CadModel, ModelsWithoutAClosedSolidAreRefused) {
   const std::string e2 = errorOf([&] { modelOf(solid, "open.step"); });
   EXPECT_TRUE(e2.find("not closed") != std::string::npos || e2.find("not a valid B-rep") != std::string::npos) << e2;
   EXPECT_NE(e2.find("open.step"), std::string::npos) << e2;
+}
+
+TEST(CadModel, SolidsAreGluedSoThatTouchingSolidsShareTheirFaces) {
+  // The electrode model shares faces; STEP repeats a shared face in each solid, and reading it
+  // back glues them again: the same patches, not two copies.
+  auto m = modelOf(electrodeInTissue(), "electrode");
+  EXPECT_EQ(m->solids().size(), 3u);
+  EXPECT_EQ(m->patches().size(), 9u);
+  EXPECT_EQ(m->eulerCharacteristic(), 6);
+  int shared = 0;
+  for (const auto& p : m->patches()) shared += p.solids.size() == 2;
+  EXPECT_EQ(shared, 6); // each contact's three faces
+  const std::string path = tempPath("electrode.step");
+  m->writeStep(path);
+  auto r = CadModel::read(path);
+  EXPECT_EQ(r->solidsInFile(), 3);
+  EXPECT_EQ(r->solids().size(), 3u);
+  EXPECT_EQ(r->patches().size(), 9u);
+  EXPECT_EQ(r->eulerCharacteristic(), 6);
+  std::filesystem::remove(path);
+  // Two overlapping boxes: three solids (each box less the other, and their overlap).
+  TopoDS_Compound both;
+  BRep_Builder b;
+  b.MakeCompound(both);
+  b.Add(both, BRepPrimAPI_MakeBox(gp_Pnt(0, 0, 0), 2, 2, 2).Shape());
+  b.Add(both, BRepPrimAPI_MakeBox(gp_Pnt(1, 1, 1), 2, 2, 2).Shape());
+  auto o = modelOf(both, "overlap");
+  EXPECT_EQ(o->solidsInFile(), 2);
+  ASSERT_EQ(o->solids().size(), 3u);
+  double total = 0;
+  for (const auto& s : o->solids()) total += s.volume;
+  EXPECT_NEAR(total, 8 + 8 - 1, 1e-9);
 }
