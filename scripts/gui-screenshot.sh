@@ -33,3 +33,6 @@ shot "$out/old-default.srn" --select m4 --color certificate_flags --clip y:0.5 -
 # The particle background of the unstructured adaptive net (GenerateBackgroundMesh), clipped.
 shot "$here/Nets/adaptive_particles.srn" --select m2 --clip y:0.5 --show-report \
   --screenshot "$here/docs/tetflow-gui-particles.png"
+# The CAD electrode net: the potential of the bipolar electrode's solve, clipped through its axis.
+shot "$here/Nets/cad_electrode.srn" --select m4 --color potential --clip x:0.5 --show-report \
+  --screenshot "$here/docs/tetflow-gui-cad.png"

@@ -8,6 +8,7 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/Progress.h"
+#include "Algorithms/SurfaceMeshing/SurfaceIntersections.h"
 
 namespace tetflow {
 
@@ -23,7 +24,92 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+double smallestAngle(const Vec3& p, const Vec3& q, const Vec3& r) {
+  auto at = [](const Vec3& apex, const Vec3& a, const Vec3& b) {
+    const Vec3 u = a - apex, v = b - apex;
+    return std::atan2(norm(cross(u, v)), dot(u, v));
+  };
+  return std::min({at(p, q, r), at(q, r, p), at(r, p, q)}) * 180.0 / M_PI;
+}
+
 } // namespace
+
+int64_t smoothCadSurface(const CadModel& model, const CadSample& sample, CadSurfaceMesh& surface, double belowDeg,
+                         int passes) {
+  const size_t nv = surface.points.size();
+  std::vector<std::vector<int32_t>> around(nv); // triangles at each vertex
+  for (size_t t = 0; t < surface.triangles.size(); ++t)
+    for (int32_t v : surface.triangles[t]) around[size_t(v)].push_back(int32_t(t));
+  auto worstAt = [&](int32_t v) {
+    double w = 180;
+    for (int32_t t : around[size_t(v)]) {
+      const auto& q = surface.triangles[size_t(t)];
+      w = std::min(w, smallestAngle(surface.points[size_t(q[0])], surface.points[size_t(q[1])], surface.points[size_t(q[2])]));
+    }
+    return w;
+  };
+  std::vector<Point2> uv(nv);
+  for (size_t v = 0; v < nv && v < sample.particles.size(); ++v) uv[v] = sample.particles[v].uv;
+  int64_t moves = 0;
+  for (int pass = 0; pass < passes; ++pass) {
+    std::vector<int32_t> todo;
+    for (const auto& q : surface.triangles)
+      if (smallestAngle(surface.points[size_t(q[0])], surface.points[size_t(q[1])], surface.points[size_t(q[2])]) < belowDeg)
+        for (int32_t v : q)
+          if (size_t(v) < sample.particles.size() && sample.particles[size_t(v)].dim == 2) todo.push_back(v);
+    std::sort(todo.begin(), todo.end());
+    todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
+    int64_t movedNow = 0;
+    for (int32_t v : todo) {
+      const CadParticle& part = sample.particles[size_t(v)];
+      const CadPatch& patch = model.patches()[size_t(part.cell)];
+      // The centroid of the ring, reached in the patch's parameters (J⁺ step).
+      Vec3 c{0, 0, 0};
+      int n = 0;
+      for (int32_t t : around[size_t(v)])
+        for (int32_t w : surface.triangles[size_t(t)])
+          if (w != v) {
+            c = c + surface.points[size_t(w)];
+            ++n;
+          }
+      if (n == 0) continue;
+      c = (1.0 / n) * c;
+      const Vec3 x = surface.points[size_t(v)];
+      const PatchPoint pp = model.patchPoint(part.cell, uv[size_t(v)].x, uv[size_t(v)].y);
+      const double a = dot(pp.du, pp.du), b = dot(pp.du, pp.dv), cc = dot(pp.dv, pp.dv), det = a * cc - b * b;
+      if (!(det > 1e-18 * (a + cc) * (a + cc))) continue;
+      const Vec3 d = c - x;
+      const double gu = dot(pp.du, d), gv = dot(pp.dv, d);
+      const Point2 step{(cc * gu - b * gv) / det, (a * gv - b * gu) / det};
+      const double before = worstAt(v);
+      for (double f : {1.0, 0.5, 0.25}) {
+        const Point2 q{uv[size_t(v)].x + f * step.x, uv[size_t(v)].y + f * step.y};
+        if (q.x < patch.u0 || q.x > patch.u1 || q.y < patch.v0 || q.y > patch.v1) continue;
+        const Vec3 y = model.patchPoint(part.cell, q.x, q.y).p;
+        // The ring's triangles keep facing along the surface normal (the vertex stays inside its
+        // ring, so inside the patch) and the worst of their angles rises.
+        const Vec3 nrm = model.patchNormal(part.cell, q.x, q.y);
+        bool ok = true;
+        surface.points[size_t(v)] = y;
+        for (int32_t t : around[size_t(v)]) {
+          const auto& tri = surface.triangles[size_t(t)];
+          const Vec3 tn = cross(surface.points[size_t(tri[1])] - surface.points[size_t(tri[0])],
+                                surface.points[size_t(tri[2])] - surface.points[size_t(tri[0])]);
+          if (dot(tn, nrm) <= 0.2 * norm(tn)) ok = false;
+        }
+        if (ok && worstAt(v) > before + 1e-6) {
+          uv[size_t(v)] = q;
+          ++movedNow;
+          break;
+        }
+        surface.points[size_t(v)] = x;
+      }
+    }
+    moves += movedNow;
+    if (movedNow == 0) break;
+  }
+  return moves;
+}
 
 SurfaceFigures surfaceFigures(const std::vector<Vec3>& points, const std::vector<std::array<int32_t, 3>>& triangles) {
   SurfaceFigures f;
@@ -80,6 +166,7 @@ CadMeshResult meshCadModel(const CadModel& model, const CadMeshParams& params) {
   t0 = std::chrono::steady_clock::now();
   if (progress) progress->beginStage("triangulate");
   r.surface = triangulateCadSample(model, sample, &r.triangulation);
+  r.smoothed = smoothCadSurface(model, sample, r.surface);
   {
     // Only the particles the triangles use (TetGen would insert any other as a vertex), in
     // their order (so the corners stay first).
@@ -116,6 +203,18 @@ CadMeshResult meshCadModel(const CadModel& model, const CadMeshParams& params) {
        << f.boundaryEdges << " open edges, " << f.nonManifoldEdges << " non-manifold edges, " << f.inconsistentEdges
        << " inconsistently oriented edges, Euler characteristic " << f.euler << " (the model's: " << r.modelEuler
        << "); try a smaller max_size or s_kappa larger";
+    throw ProcessingError(os.str());
+  }
+  // TetGen crashes on a surface that intersects itself (instead of saying so): check first.
+  const auto hits = surfaceIntersections(r.surface.points, r.surface.triangles, 3);
+  if (!hits.empty()) {
+    const auto& h = hits.front();
+    std::ostringstream os;
+    os << "the surface mesh of '" << model.source() << "' intersects itself (" << hits.size()
+       << (hits.size() >= 3 ? "+" : "") << " pairs of triangles): a triangle of patch "
+       << r.surface.trianglePatch[size_t(h.a)] << " and one of patch " << r.surface.trianglePatch[size_t(h.b)]
+       << " meet near (" << h.where[0] << ", " << h.where[1] << ", " << h.where[2]
+       << ") mm; the sampling is too coarse for a gap there: lower max_size, or raise s_kappa";
     throw ProcessingError(os.str());
   }
   // A seed point inside each solid: beside one of its triangles, on the side the classifier

@@ -28,6 +28,14 @@ struct CadMeshParams {
   }();
 };
 
+// Smoothing of the triangulated sample: every patch vertex (a particle inside a patch) of a
+// triangle with an angle below `belowDeg` moves, in its patch's parameters, toward the centroid of
+// its ring when that raises the smallest angle of its triangles (and they keep facing along the
+// patch's normal); vertices on curves and corners stay. Up to `passes` passes; returns the moves.
+// The particles leave pockets (seed §3.5.2.1, Fig. 3.17) where a few triangles fall below 30°.
+int64_t smoothCadSurface(const CadModel& model, const CadSample& sample, CadSurfaceMesh& surface,
+                         double belowDeg = 35.0, int passes = 5);
+
 // Figures of a triangle surface.
 struct SurfaceFigures {
   int64_t vertices = 0, edges = 0, triangles = 0;
@@ -45,6 +53,7 @@ struct CadMeshResult {
   TetMesh mesh;
   PsysStats particles;
   CadTriangulationStats triangulation;
+  int64_t smoothed = 0; // smoothCadSurface's moves
   SurfaceFigures figures;
   TetgenSurfaceStats tetgen;
   ImproveStats improve; // when params.improve

@@ -108,11 +108,15 @@ double pointTriangleDistance(const Vec3& p, const Vec3& a, const Vec3& b, const 
 double hausdorff(const TopoDS_Shape& shape, const Surface& s) {
   TopTools_IndexedMapOfShape faces;
   TopExp::MapShapes(shape, TopAbs_FACE, faces);
-  std::vector<Handle(Geom_Surface)> surf(size_t(faces.Extent()));
+  // One projector per face, initialised once (its search grid is built once, not per point).
+  std::vector<GeomAPI_ProjectPointOnSurf> proj(size_t(faces.Extent()));
   std::vector<gp_Trsf> inv(size_t(faces.Extent()));
   for (int f = 1; f <= faces.Extent(); ++f) {
     TopLoc_Location loc;
-    surf[size_t(f - 1)] = BRep_Tool::Surface(TopoDS::Face(faces(f)), loc);
+    const TopoDS_Face& face = TopoDS::Face(faces(f));
+    double u0, u1, v0, v1;
+    BRepTools::UVBounds(face, u0, u1, v0, v1);
+    proj[size_t(f - 1)].Init(BRep_Tool::Surface(face, loc), u0, u1, v0, v1);
     inv[size_t(f - 1)] = loc.Transformation().Inverted();
   }
   double h = 0;
@@ -122,8 +126,9 @@ double hausdorff(const TopoDS_Shape& shape, const Surface& s) {
     for (const Vec3& p : {(1.0 / 3) * (a + b + c), 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)}) {
       gp_Pnt q(p[0], p[1], p[2]);
       q.Transform(inv[size_t(s.face[t])]);
-      GeomAPI_ProjectPointOnSurf proj(q, surf[size_t(s.face[t])]);
-      if (proj.NbPoints() > 0) h = std::max(h, proj.LowerDistance());
+      GeomAPI_ProjectPointOnSurf& pr = proj[size_t(s.face[t])];
+      pr.Perform(q);
+      if (pr.NbPoints() > 0) h = std::max(h, pr.LowerDistance());
     }
   }
   // CAD -> mesh: a 24 x 24 grid of each face's parameters (inside the face) to the nearest triangle.
