@@ -3,6 +3,8 @@
 #include <BRepBuilderAPI_MakePolygon.hxx>
 #include <BRepBuilderAPI_MakeSolid.hxx>
 #include <BRep_Builder.hxx>
+#include <IGESControl_Controller.hxx>
+#include <IGESControl_Writer.hxx>
 #include <TopExp_Explorer.hxx>
 #include <TopoDS.hxx>
 #include <TopoDS_Compound.hxx>
@@ -187,4 +189,24 @@ TEST(CadModel, SolidsAreGluedSoThatTouchingSolidsShareTheirFaces) {
   double total = 0;
   for (const auto& s : o->solids()) total += s.volume;
   EXPECT_NEAR(total, 8 + 8 - 1, 1e-9);
+}
+
+TEST(CadModel, IgesWrittenAndReadBackIsTheSameModel) {
+  IGESControl_Controller::Init();
+  for (const auto& tm : testModels()) {
+    SCOPED_TRACE(tm.name);
+    const TopoDS_Shape shape = tm.make();
+    auto m = modelOf(shape, tm.name);
+    IGESControl_Writer w("MM", 1); // B-rep mode (MSBO solids)
+    w.AddShape(shape);
+    w.ComputeModel();
+    const std::string path = tempPath(tm.name + ".igs");
+    ASSERT_TRUE(w.Write(path.c_str()));
+    auto r = CadModel::read(path);
+    EXPECT_EQ(r->solids().size(), 1u);
+    EXPECT_EQ(r->patches().size(), m->patches().size());
+    EXPECT_EQ(r->eulerCharacteristic(), tm.euler);
+    EXPECT_NEAR(r->solids()[0].volume, m->solids()[0].volume, 1e-5 * m->solids()[0].volume);
+    std::filesystem::remove(path);
+  }
 }
