@@ -1,12 +1,11 @@
 #include "TetgenDelaunay.h"
 
-#include <tetgen.h>
-
 #include <cstring>
 #include <string>
 #include <vector>
 
 #include "Algorithms/Core/Errors.h"
+#include "TetgenCall.h"
 
 namespace tetflow {
 
@@ -15,28 +14,9 @@ std::vector<TetMesh::Tet> tetgenDelaunay(std::vector<Vec3>& points, const std::s
   if (points.size() < 4) throw InputError("a Delaunay tetrahedralization needs at least 4 points");
   if (points.size() >= size_t(INT32_MAX / 2)) throw InputError("too many points for TetGen (2^30 at most)");
   tetgenio in, out;
-  in.firstnumber = 0;
-  in.numberofpoints = int(points.size());
-  in.pointlist = new REAL[points.size() * 3];
-  for (size_t i = 0; i < points.size(); ++i)
-    for (int a = 0; a < 3; ++a) in.pointlist[3 * i + size_t(a)] = points[i][size_t(a)];
-  std::string sw = "Qz" + switches;
-  std::vector<char> buf(sw.begin(), sw.end());
-  buf.push_back('\0');
-  try {
-    tetrahedralize(buf.data(), &in, &out);
-  } catch (int code) {
-    const char* why = code == 1   ? "out of memory"
-                      : code == 2 ? "internal error"
-                      : code == 3 ? "a self-intersection"
-                      : code == 4 ? "a very small input feature size"
-                      : code == 5 ? "two very close input facets"
-                      : code == 10 ? "an input error"
-                                  : "an unknown error";
-    throw ProcessingError("TetGen failed (" + std::string(why) + ", code " + std::to_string(code) + ") on " +
-                          std::to_string(points.size()) + " points with switches -" + sw);
-  }
-  if (out.numberofcorners != 4) throw ProcessingError("TetGen returned elements that are not linear tets");
+  tetgencall::setPoints(in, points);
+  const std::string sw = "Qz" + switches;
+  tetgencall::run(sw, in, out, std::to_string(points.size()) + " points");
   const size_t n0 = points.size();
   for (int i = int(n0); i < out.numberofpoints; ++i)
     points.push_back({out.pointlist[3 * i], out.pointlist[3 * i + 1], out.pointlist[3 * i + 2]});

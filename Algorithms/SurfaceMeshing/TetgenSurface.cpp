@@ -1,9 +1,8 @@
 #include "TetgenSurface.h"
 
-#include <tetgen.h>
-
 #include <sstream>
 
+#include "Algorithms/BackgroundMesh/TetgenCall.h"
 #include "Algorithms/Core/Errors.h"
 
 namespace tetflow {
@@ -16,11 +15,7 @@ TetMesh tetgenFromSurface(const std::vector<Vec3>& points, const std::vector<std
   if (points.size() >= size_t(INT32_MAX / 2) || triangles.size() >= size_t(INT32_MAX / 2))
     throw InputError("too many points or triangles for TetGen (2^30 at most)");
   tetgenio in, out;
-  in.firstnumber = 0;
-  in.numberofpoints = int(points.size());
-  in.pointlist = new REAL[points.size() * 3];
-  for (size_t i = 0; i < points.size(); ++i)
-    for (int a = 0; a < 3; ++a) in.pointlist[3 * i + size_t(a)] = points[i][size_t(a)];
+  tetgencall::setPoints(in, points);
   in.numberoffacets = int(triangles.size());
   in.facetlist = new tetgenio::facet[triangles.size()];
   for (size_t f = 0; f < triangles.size(); ++f) {
@@ -51,23 +46,7 @@ TetMesh tetgenFromSurface(const std::vector<Vec3>& points, const std::vector<std
   if (!regions.empty()) sw << "A";
   if (!quality.empty()) sw << "q" << quality;
   if (maxVolume > 0) sw << "a" << maxVolume;
-  std::string s = sw.str();
-  std::vector<char> buf(s.begin(), s.end());
-  buf.push_back('\0');
-  try {
-    tetrahedralize(buf.data(), &in, &out);
-  } catch (int code) {
-    const char* why = code == 1   ? "out of memory"
-                      : code == 2 ? "internal error"
-                      : code == 3 ? "the surface intersects itself"
-                      : code == 4 ? "a very small input feature size"
-                      : code == 5 ? "two very close input facets"
-                      : code == 10 ? "an input error"
-                                  : "an unknown error";
-    throw ProcessingError("TetGen failed (" + std::string(why) + ", code " + std::to_string(code) + ") on a surface of " +
-                          std::to_string(triangles.size()) + " triangles with switches -" + s);
-  }
-  if (out.numberofcorners != 4) throw ProcessingError("TetGen returned elements that are not linear tets");
+  tetgencall::run(sw.str(), in, out, "a surface of " + std::to_string(triangles.size()) + " triangles");
   TetMesh mesh;
   mesh.points.reserve(size_t(out.numberofpoints));
   for (int i = 0; i < out.numberofpoints; ++i)
