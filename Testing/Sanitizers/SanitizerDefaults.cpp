@@ -23,7 +23,20 @@ extern "C" const char* __lsan_default_suppressions() {
          // input is Testing/Fuzz/corpus/vtk/finding-leak-cell-types, run by FuzzCorpus.vtk).
          // The stack names libvtkCommonDataModel (vtkCellArray::New) and the reader.
          "leak:vtkUnstructuredGridReader::ReadMeshSimple\n"
-         "leak:libvtkCommonDataModel\n";
+         "leak:libvtkCommonDataModel\n"
+         // OpenCASCADE's STEP and IGES translators register their static parameters once per
+         // process (STEPControl_Controller::Init / IGESControl_Controller::Init ->
+         // Interface_Static::Init -> MoniTool_TypedValue::AddEnum, IFSelect_Editor,
+         // GeomToStep_MakeDirection) and never free them: CadModel.StepWrittenAndReadBackIsTheSameModel,
+         // CadModel.BadFilesNameTheFileAndTheFix, CadModel.IgesWrittenAndReadBackIsTheSameModel
+         // (stacks seen with ASAN_OPTIONS=fast_unwind_on_malloc=0). Debian's OpenCASCADE has no
+         // frame pointers, so the fast unwinder's stacks stop in its allocator (Standard_MMgrRaw,
+         // libTKernel) or in the translator libraries; these entries match those. TetFlow holds
+         // OpenCASCADE objects by value and through Handle() only.
+         "leak:Standard_MMgrRaw\n"
+         "leak:libTKXSBase\n"
+         "leak:libTKSTEP\n"
+         "leak:libTKIGES\n";
 }
 
 // ThreadSanitizer (TETFLOW_SANITIZE=thread, built with clang and LLVM's OpenMP; run with
