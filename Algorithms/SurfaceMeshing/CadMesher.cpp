@@ -217,36 +217,37 @@ CadMeshResult meshCadModel(const CadModel& model, const CadMeshParams& params) {
        << ") mm; the sampling is too coarse for a gap there: lower max_size, or raise s_kappa";
     throw ProcessingError(os.str());
   }
-  // A seed point inside each solid: beside one of its triangles, on the side the classifier
-  // calls inside.
+  // A seed point inside each solid, for TetGen's regions: beside a triangle of its boundary, on
+  // its side. Triangles face out of their patch's first solid, so the solid is behind the
+  // triangle when it is that one and in front of it otherwise (the patch it shares with a
+  // neighbour). The mesh decides, not the CAD solid: a point between a chord and the curved
+  // surface is in the CAD solid but not in its mesh. The largest triangle is taken, the point
+  // a twentieth of its shortest edge away (nothing else of the surface is that near it).
   t0 = std::chrono::steady_clock::now();
   if (progress) progress->beginStage("tetgen");
   std::vector<TetgenRegion> regions;
   if (model.solids().size() > 1) {
     for (size_t s = 0; s < model.solids().size(); ++s) {
-      bool found = false;
-      for (size_t t = 0; t < r.surface.triangles.size() && !found; t += 1 + r.surface.triangles.size() / 50) {
-        const int p = r.surface.trianglePatch[t];
-        const auto& sol = model.patches()[size_t(p)].solids;
+      double bestArea = 0;
+      Vec3 seed{};
+      for (size_t t = 0; t < r.surface.triangles.size(); ++t) {
+        const auto& sol = model.patches()[size_t(r.surface.trianglePatch[t])].solids;
         if (std::find(sol.begin(), sol.end(), int(s)) == sol.end()) continue;
         const auto& tri = r.surface.triangles[t];
         const Vec3 &a = r.surface.points[size_t(tri[0])], &b = r.surface.points[size_t(tri[1])],
                    &c = r.surface.points[size_t(tri[2])];
         const Vec3 n = cross(b - a, c - a);
+        const double area = 0.5 * norm(n);
+        if (!(area > bestArea)) continue;
+        bestArea = area;
         const double h = 0.05 * std::min({norm(b - a), norm(c - b), norm(a - c)});
-        const Vec3 centre = (1.0 / 3) * (a + b + c);
-        for (double sign : {-1.0, 1.0}) {
-          const Vec3 q = centre + (sign * h / norm(n)) * n;
-          if (model.insideSolid(int(s), q)) {
-            regions.push_back({q, int(s) + 1});
-            found = true;
-            break;
-          }
-        }
+        const double side = sol[0] == int(s) ? -1.0 : 1.0;
+        seed = (1.0 / 3) * (a + b + c) + (side * h / norm(n)) * n;
       }
-      if (!found)
-        throw ProcessingError("no point inside solid " + std::to_string(s + 1) + " of '" + model.source() +
-                              "' was found beside its surface triangles");
+      if (!(bestArea > 0))
+        throw ProcessingError("solid " + std::to_string(s + 1) + " of '" + model.source() +
+                              "' has no surface triangle to seed its region from");
+      regions.push_back({seed, int(s) + 1});
     }
   }
   r.mesh = tetgenFromSurface(r.surface.points, r.surface.triangles, regions, params.tetgenQuality,
