@@ -1,12 +1,11 @@
 // MeshCADSurface: PSYS (seed chapter 3) on a CAD model: particles on its corners, curves and
 // patches with an inferred sizing field, their parameter-space triangulation stitched into a
 // closed surface, then TetGen inside it (Algorithms/SurfaceMeshing/CadMesher.h).
+// The headers are OpenCASCADE-free; without OpenCASCADE only the code behind them is left out.
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/TetQuality.h"
-#include "StandardModules.h"
-#ifdef TETFLOW_HAVE_OCCT
 #include "Algorithms/SurfaceMeshing/CadMesher.h"
-#endif
+#include "StandardModules.h"
 
 namespace tetflow {
 
