@@ -3,7 +3,6 @@
 // closed surface, then TetGen inside it (Algorithms/SurfaceMeshing/CadMesher.h).
 // The headers are OpenCASCADE-free; without OpenCASCADE only the code behind them is left out.
 #include "Algorithms/Core/Errors.h"
-#include "Algorithms/Quality/TetQuality.h"
 #include "Algorithms/SurfaceMeshing/CadMesher.h"
 #include "StandardModules.h"
 
@@ -73,15 +72,8 @@ public:
     r.set("tets", res.mesh.numTets());
     r.set("vertices", res.mesh.numPoints());
     r.set("tetgen_steiner_points", res.tetgen.addedPoints);
-    double dmin = 180, dmax = 0;
-    for (size_t t = 0; t < res.mesh.numTets(); ++t) {
-      const auto& q = res.mesh.tets[t];
-      const auto& P = res.mesh.points;
-      dmin = std::min(dmin, minDihedral(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
-      dmax = std::max(dmax, maxDihedral(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
-    }
-    r.set("min_dihedral_deg", dmin);
-    r.set("max_dihedral_deg", dmax);
+    r.set("min_dihedral_deg", res.minDihedral);
+    r.set("max_dihedral_deg", res.maxDihedral);
     if (p.improve) {
       writeImproveReport(res.improve, p.improveParams, r);
       logUnfixed(ctx, res.improve, p.improveParams);
@@ -93,8 +85,7 @@ public:
     ctx.setOutput(0, makeData<TetMeshData>(std::move(res.mesh)));
 #else
     (void)ctx;
-    throw InputError("MeshCADSurface: this TetFlow was built without OpenCASCADE (-DTETFLOW_WITH_OCCT=OFF); "
-                     "install libocct-data-exchange-dev (scripts/setup.sh does) and build again");
+    throwBuiltWithoutOpenCascade("MeshCADSurface");
 #endif
   }
 };

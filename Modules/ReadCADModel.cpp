@@ -1,6 +1,5 @@
 // ReadCADModel: a B-rep CAD model (STEP, IGES, BREP) through OpenCASCADE (Algorithms/CAD).
 #include "Algorithms/CAD/CadModel.h"
-#include "Algorithms/Core/Errors.h"
 #include "StandardModules.h"
 
 namespace tetflow {
@@ -33,8 +32,7 @@ public:
     ctx.setOutput(0, makeData<CadModelData>(model));
 #else
     (void)ctx;
-    throw InputError("ReadCADModel: this TetFlow was built without OpenCASCADE (-DTETFLOW_WITH_OCCT=OFF); "
-                     "install libocct-data-exchange-dev (scripts/setup.sh does) and build again");
+    throwBuiltWithoutOpenCascade("ReadCADModel");
 #endif
   }
 };

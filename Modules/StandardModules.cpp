@@ -2,6 +2,8 @@
 
 #include <sstream>
 
+#include "Algorithms/Core/Errors.h"
+
 namespace tetflow {
 
 void registerStandardModules(ModuleRegistry& r) {
@@ -60,6 +62,11 @@ void reportLabelVolume(Report& report, const LabelVolume& v) {
     report.set(key + "_voxels", ReportValue(int64_t(n)));
     report.set(key + "_volume_mm3", ReportValue(double(n) * g.voxelVolume()));
   }
+}
+
+void throwBuiltWithoutOpenCascade(const std::string& module) {
+  throw InputError(module + ": this TetFlow was built without OpenCASCADE (-DTETFLOW_WITH_OCCT=OFF); install "
+                   "libocct-data-exchange-dev (scripts/setup.sh does) and build again");
 }
 
 } // namespace tetflow

@@ -25,9 +25,10 @@ void registerAssembleFEMPoisson(ModuleRegistry& r);
 void registerImproveMesh(ModuleRegistry& r);
 void registerComputeLeadField(ModuleRegistry& r);
 void registerAnalyticSphereEEG(ModuleRegistry& r);
-// CAD models (OpenCASCADE; without it they are registered but say so when run).
+// CAD models (OpenCASCADE; without it they are registered but say so when run, with this).
 void registerReadCADModel(ModuleRegistry& r);
 void registerMeshCADSurface(ModuleRegistry& r);
+[[noreturn]] void throwBuiltWithoutOpenCascade(const std::string& module);
 
 // "LabelVolume or Materials" inputs: a label volume becomes LabelMaterials (blendSigma voxels).
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma);

@@ -63,12 +63,6 @@ namespace {
 Vec3 toVec(const gp_Pnt& p) { return {p.X(), p.Y(), p.Z()}; }
 Vec3 toVec(const gp_Vec& v) { return {v.X(), v.Y(), v.Z()}; }
 
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-
 // OpenCASCADE prints its translators' messages to stdout by default; a library stays quiet.
 void silenceOpenCascade() {
   static std::once_flag once;
@@ -92,7 +86,6 @@ struct CadModel::Impl {
     bool identity = true;
   };
   std::vector<CurveGeom> curveGeom;
-  std::vector<TopoDS_Edge> curveEdge;
   struct SurfaceGeom {
     Handle(Geom_Surface) surface;
     gp_Trsf trsf;
@@ -118,7 +111,7 @@ std::shared_ptr<const CadModel> CadModel::read(const std::string& path) {
     throw InputError("ReadCADModel: file '" + path + "' does not exist");
   if (std::filesystem::is_directory(path, ec))
     throw InputError("ReadCADModel: '" + path + "' is a folder, not a CAD file");
-  const std::string ext = lowerExtension(path);
+  const std::string ext = fileExtension(path);
   TopoDS_Shape shape;
   try {
     if (ext == ".step" || ext == ".stp") {
@@ -241,7 +234,6 @@ std::shared_ptr<const CadModel> CadModel::fromShape(const void* topoDsShape, con
       I.edgeToCurve[e - 1] = int(model->curves_.size());
       model->curves_.push_back(c);
       I.curveGeom.push_back(g);
-      I.curveEdge.push_back(edge);
     }
 
     // Patches, their loops and pcurves.

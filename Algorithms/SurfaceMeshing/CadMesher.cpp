@@ -8,6 +8,7 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/Progress.h"
+#include "Algorithms/Quality/TetQuality.h"
 #include "Algorithms/SurfaceMeshing/SurfaceIntersections.h"
 
 namespace tetflow {
@@ -260,6 +261,16 @@ CadMeshResult meshCadModel(const CadModel& model, const CadMeshParams& params) {
     NullProgress quiet;
     r.improve = improveMesh(r.mesh, ip, progress ? *progress : quiet);
     r.seconds[3] = seconds(t0);
+    r.minDihedral = r.improve.minAfter; // the improvement measured the whole mesh
+    r.maxDihedral = r.improve.maxAfter;
+  } else {
+    r.minDihedral = 180;
+    for (size_t t = 0; t < r.mesh.numTets(); ++t) {
+      const auto& q = r.mesh.tets[t];
+      const auto& P = r.mesh.points;
+      r.minDihedral = std::min(r.minDihedral, minDihedral(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
+      r.maxDihedral = std::max(r.maxDihedral, maxDihedral(P[q[0]], P[q[1]], P[q[2]], P[q[3]]));
+    }
   }
   return r;
 }

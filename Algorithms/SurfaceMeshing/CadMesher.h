@@ -57,6 +57,7 @@ struct CadMeshResult {
   SurfaceFigures figures;
   TetgenSurfaceStats tetgen;
   ImproveStats improve; // when params.improve
+  double minDihedral = 0, maxDihedral = 0; // of the final mesh, degrees
   int modelEuler = 0;
   double seconds[4] = {0, 0, 0, 0}; // particles, triangulation, tetgen, improvement
 };

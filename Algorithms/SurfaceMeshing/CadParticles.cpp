@@ -481,16 +481,16 @@ struct System {
         total += energy[k];
       }
       // The corners' σ follows the Lipschitz bound of the curve particles around them.
-      if (dim == 1)
-        for (size_t c = 0; c < M.corners().size(); ++c) {
-          double s = sigmaKappa[c];
-          for (int k = 0; k < nm; ++k) {
-            const int i = movers[k];
-            if (curveCorners[P[i].cell][0] == int(c) || curveCorners[P[i].cell][1] == int(c))
-              s = std::min(s, prm.lipschitz * norm(P[i].x - P[c].x) + P[i].sigma);
-          }
-          P[c].sigma = std::max(sigmaMin, s);
+      // One pass over the curve particles, each bounding its curve's two corners.
+      if (dim == 1) {
+        std::vector<double> cornerSigma(sigmaKappa.begin(), sigmaKappa.begin() + std::ptrdiff_t(M.corners().size()));
+        for (int k = 0; k < nm; ++k) {
+          const CadParticle& q = P[movers[k]];
+          for (int c : curveCorners[q.cell])
+            cornerSigma[size_t(c)] = std::min(cornerSigma[size_t(c)], prm.lipschitz * norm(q.x - P[c].x) + q.sigma);
         }
+        for (size_t c = 0; c < cornerSigma.size(); ++c) P[c].sigma = std::max(sigmaMin, cornerSigma[c]);
+      }
       if (it == 0) st.firstEnergy = total;
       st.lastEnergy = total;
       st.iterations = it + 1;
@@ -498,6 +498,9 @@ struct System {
       int changes = 0;
       if (it < stopSplitsAt && it % kChangeEvery == kChangeEvery - 1) {
         std::vector<char> locked(P.size(), 0);
+        std::vector<int> onCurve(M.curves().size(), 0); // living particles per curve
+        if (dim == 1)
+          for (int i : movers) ++onCurve[size_t(P[i].cell)];
         for (int k = 0; k < nm; ++k) {
           const int i = movers[k];
           if (locked[i] || !alive[i]) continue;
@@ -505,13 +508,16 @@ struct System {
           const double ideal = idealEnergy(dim, P[i].sigma);
           const bool split = eStar < 0.35 * ideal, del = eStar > 1.75 * ideal;
           if (!split && !del) continue;
-          if (del && dim == 1 && !canDeleteOnCurve(P[i].cell)) continue;
+          if (del && dim == 1 && onCurve[size_t(P[i].cell)] <= minOnCurve(P[i].cell)) continue;
           bool changed = false;
-          if (split) changed = splitParticle(i, unif, tree);
-          else {
+          if (split) {
+            changed = splitParticle(i, unif, tree);
+            if (changed && dim == 1) ++onCurve[size_t(P[i].cell)];
+          } else {
             alive[i] = 0;
             ++st.deletes;
             changed = true;
+            if (dim == 1) --onCurve[size_t(P[i].cell)];
           }
           if (!changed) continue;
           if (split) ++st.splits;
@@ -539,12 +545,7 @@ struct System {
 
   // A curve keeps at least one particle (two on a closed curve) so that no two curves between
   // the same corners give the same edge.
-  bool canDeleteOnCurve(int c) const {
-    int n = 0;
-    for (size_t i = 0; i < P.size(); ++i)
-      if (alive[i] && P[i].dim == 1 && P[i].cell == c) ++n;
-    return n > (curveCorners[c][0] == curveCorners[c][1] ? 2 : 1);
-  }
+  int minOnCurve(int c) const { return curveCorners[size_t(c)][0] == curveCorners[size_t(c)][1] ? 2 : 1; }
 
   // A split puts the new particle at the ideal distance β σ from its parent: on a curve into the
   // larger of the two gaps to its neighbours along the curve, on a patch in a random direction

@@ -24,7 +24,6 @@
 #include <map>
 #include <sstream>
 
-#include "Algorithms/Quality/TetQuality.h"
 #include "Algorithms/SurfaceMeshing/CadMesher.h"
 #include "Fixtures/CadModels.h"
 
@@ -162,28 +161,20 @@ struct Row {
   std::string note;
 };
 
-void dihedralRange(const TetMesh& m, double& lo, double& hi) {
-  lo = 180;
-  hi = 0;
-  for (size_t t = 0; t < m.numTets(); ++t) {
-    const auto& q = m.tets[t];
-    lo = std::min(lo, minDihedral(m.points[q[0]], m.points[q[1]], m.points[q[2]], m.points[q[3]]));
-    hi = std::max(hi, maxDihedral(m.points[q[0]], m.points[q[1]], m.points[q[2]], m.points[q[3]]));
-  }
-}
-
 // TetGen (same call as MeshCADSurface) + improvement with the surfaces kept.
 void volume(const CadModel& model, const Surface& s, Row& row) {
   const double t0 = now();
   std::vector<TetgenRegion> regions;
   try {
     TetMesh m = tetgenFromSurface(s.points, s.tris, regions, "1.414/10");
-    dihedralRange(m, row.dminTetgen, row.dmaxTetgen);
     ImproveParams ip;
     ip.fixSurfaces = true;
     NullProgress np;
-    improveMesh(m, ip, np);
-    dihedralRange(m, row.dmin, row.dmax);
+    const ImproveStats st = improveMesh(m, ip, np); // measures the whole mesh before and after
+    row.dminTetgen = st.minBefore;
+    row.dmaxTetgen = st.maxBefore;
+    row.dmin = st.minAfter;
+    row.dmax = st.maxAfter;
     row.tets = m.numTets();
   } catch (const std::exception& e) {
     row.note = std::string("TetGen: ") + e.what();
@@ -270,8 +261,7 @@ int main(int argc, char** argv) {
     const double t0 = now();
     CadMeshResult r = meshCadModel(*model, p);
     const double total = now() - t0;
-    double lo, hi;
-    dihedralRange(r.mesh, lo, hi);
+    const double lo = r.minDihedral, hi = r.maxDihedral;
     out << "# large: box_with_hole, max_size 0.8 mm, max_tet_volume 0.0035 mm^3: " << r.figures.vertices
         << " surface vertices, " << r.mesh.numTets() << " tets, dihedral [" << fmt(lo) << ", " << fmt(hi)
         << "], " << fmt(total) << " s (particles " << fmt(r.seconds[0]) << ", triangulation " << fmt(r.seconds[1])
