@@ -212,7 +212,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       for (const auto& c : conns) {
         if (c.to != id) continue;
         const ModuleState& up = states_[c.from];
-        if (up.valid && c.fromPort < static_cast<int>(up.outputs.size())) {
+        if ((up.valid || up.passedOn) && c.fromPort < static_cast<int>(up.outputs.size())) {
           inputs[c.toPort] = up.outputs[c.fromPort];
           inputIds[c.toPort] = inputs[c.toPort] ? inputs[c.toPort]->id() : 0;
         }
@@ -251,6 +251,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       s.error.clear();
       s.errorKind.clear();
       s.skippedBecause.clear();
+      s.passedOn = false;
       s.progress = 0;
       active_.push_back(&progress);
       if (cancel_.load()) progress.requestCancel();
@@ -274,6 +275,10 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       progress.endStage();
     } catch (const Cancelled&) {
       final = ModuleStatus::Cancelled;
+    } catch (const GateFailure& e) {
+      final = ModuleStatus::Error;
+      err = e.what();
+      kind = "gate";
     } catch (const InputError& e) {
       final = ModuleStatus::Error;
       err = e.what();
@@ -315,6 +320,10 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
         const std::string prefix = id + ": ";
         s.error = err.rfind(prefix, 0) == 0 ? err : prefix + err;
         s.errorKind = kind;
+        if (kind == "gate") { // the outputs stand: downstream runs on them
+          s.outputs = ctx.outputs();
+          s.passedOn = true;
+        }
       }
     }
     setStatus(id, final);
@@ -322,7 +331,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
     if (final == ModuleStatus::Done) ++sum.ran;
     else if (final == ModuleStatus::Error) ++sum.failed;
     else ++sum.cancelled;
-    complete(id, final == ModuleStatus::Done);
+    complete(id, final == ModuleStatus::Done || kind == "gate");
   };
 
   int nThreads = opt.threads > 0 ? opt.threads : static_cast<int>(std::thread::hardware_concurrency());

@@ -43,6 +43,8 @@ struct ModuleState {
   std::string error;      // Error: message (starts with the module id)
   std::string errorKind;  // "input", "processing", "internal"
   std::string skippedBecause; // Skipped: id of the failed upstream module
+  // Error from a GateFailure: the outputs were set and go on downstream (the module still failed).
+  bool passedOn = false;
   double seconds = 0.0;
   double progress = 0.0;
   // What the last successful run used (re-execution decisions).

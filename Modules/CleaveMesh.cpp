@@ -1,11 +1,10 @@
 // CleaveMesh: lattice cleaving (Algorithms/Cleaving/Cleaver.h) of a background mesh into a
 // conforming multimaterial mesh.
 #include <cmath>
+#include <optional>
 #include <sstream>
 
-#include "Algorithms/Cleaving/Cleaver.h"
-#include "Algorithms/Cleaving/LabelRepair.h"
-#include "Algorithms/Cleaving/VolumeCalibration.h"
+#include "Algorithms/Cleaving/CleavePipeline.h"
 #include "Algorithms/Core/MemoryBudget.h"
 #include "StandardModules.h"
 
@@ -60,6 +59,10 @@ public:
     p.alpha_short = ctx.getDouble("alpha_short");
     p.alpha_long = ctx.getDouble("alpha_long");
     p.xi = ctx.getDouble("xi");
+    const std::string ip0 = ctx.getString("interface_points");
+    p.interface_points = ip0 == "exact"    ? CleaveParams::InterfacePoints::Exact
+                         : ip0 == "linear" ? CleaveParams::InterfacePoints::Linear
+                                           : CleaveParams::InterfacePoints::Auto;
     const std::string strip = ctx.getString("strip_exterior");
     if (strip != "none" && !strip.empty()) {
       size_t used = 0;
@@ -74,49 +77,39 @@ public:
       p.strip_exterior = static_cast<int32_t>(v);
     }
     const bool repairOn = ctx.getBool("repair_labels");
-    LabelRepairParams rp;
-    rp.contacts = rp.connect = rp.edges = rp.fragments = repairOn;
-    rp.fragment_voxels = ctx.getDouble("fragment_voxels");
-    rp.points = repairOn && ctx.getBool("repair_point_contacts");
-    VolumeCalibration calibration;
-    std::unique_ptr<OffsetMaterials> calibrated;
-    const int rounds = static_cast<int>(ctx.getInt("volume_calibration"));
-    CleaveResult r = rounds > 0 ? cleaveCalibrated(bg, *mats, p, rounds, repairOn ? &rp : nullptr, ctx.progress(),
-                                                   calibration, calibrated)
-                                : cleave(bg, *mats, p, ctx.progress());
-    const MaterialSet& used = calibrated ? static_cast<const MaterialSet&>(*calibrated) : *mats;
-    LabelRepairStats repair;
-    if (repairOn) {
-      repair = repairLabels(r.mesh, used, rp, ctx.progress());
-      // The per-material figures after the repair (stripped labels keep theirs: no tets left).
-      const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats->labels());
-      for (size_t i = 0; i < r.materials.size(); ++i)
-        if (!r.materials[i].stripped) {
-          r.materials[i].tets = now[i].tets;
-          r.materials[i].meshVolume = now[i].volume;
-        }
-    }
-    // Label-preserving improvement of the final labels (after the repair): the worst tets up to
-    // the angle targets.
+    CleavePipelineParams pp;
+    pp.cleave = p;
+    pp.calibration_rounds = static_cast<int>(ctx.getInt("volume_calibration"));
+    pp.repair = repairOn;
+    pp.repairParams.fragment_voxels = ctx.getDouble("fragment_voxels");
+    pp.repairParams.points = ctx.getBool("repair_point_contacts");
+    pp.strip = p.strip_exterior;
+    pp.stripCavities = ctx.getBool("strip_cavities");
+    pp.correct = ctx.getBool("correct_volumes");
     const bool improveOn = ctx.getBool("improve");
-    ImproveParams ip = improveParamsFrom(ctx, "improve_");
+    const ImproveParams ip = improveParamsFrom(ctx, "improve_");
+    pp.correction.min_angle = ip.min_angle; // the improvement's bounds, whether it runs or not
+    pp.correction.max_angle = ip.max_angle;
+    CleavePipelineResult res = cleavePipeline(bg, *mats, pp, ctx.progress());
+    CleaveResult& r = res.cleaved;
+    // Label-preserving improvement of the final labels: the worst tets up to the angle targets.
     ImproveStats improved;
+    int64_t finished = 0;
     if (improveOn) {
       improved = improveMesh(r.mesh, ip, ctx.progress());
+      if (repairOn) finished = finishLabels(r.mesh, *mats, res, ctx.progress());
       const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats->labels());
-      for (size_t i = 0; i < r.materials.size(); ++i)
-        if (!r.materials[i].stripped) {
-          r.materials[i].tets = now[i].tets;
-          r.materials[i].meshVolume = now[i].volume;
-        }
+      for (size_t i = 0; i < r.materials.size(); ++i) {
+        r.materials[i].tets = now[i].tets;
+        r.materials[i].meshVolume = now[i].volume;
+      }
     }
-    writeCleaveReport(r, ctx.report());
+    writeCleavePipelineReport(res, pp, mats->labels(), ctx.report());
+    if (improveOn && repairOn) ctx.report().set("repair_fragments_after_improvement", ReportValue(finished));
     if (improveOn) {
       writeImproveReport(improved, ip, ctx.report());
       logUnfixed(ctx, improved, ip);
     }
-    if (repairOn) writeLabelRepairReport(repair, ctx.report());
-    if (rounds > 0) writeVolumeCalibrationReport(calibration, mats->labels(), ctx.report());
     ctx.report().set("background", bg.kind.empty() ? "unstructured" : "bcc_lattice");
     for (const auto& m : r.materials)
       if (m.lost()) {
@@ -148,7 +141,14 @@ void registerCleaveMesh(ModuleRegistry& r) {
   strip.name = "strip_exterior";
   strip.type = ParamType::String;
   strip.defaultValue = std::string("none");
-  strip.description = "material label removed after meshing (e.g. 0 for the background), or none";
+  strip.description = "material label whose exterior is removed after meshing (its voxels connected to the box: "
+                      "e.g. 0 for the air around a head; its cavities stay unless strip_cavities), or none";
+  ParamSpec interfacePoints = makeParam("interface_points", ParamType::Enum, std::string("auto"), "",
+                                        "where interface points go on an edge: exact = where the materials' "
+                                        "functions cross (a one-voxel layer keeps its thickness), linear = where "
+                                        "the linear interpolation of the end samples crosses (the seed, Cleaver), "
+                                        "auto = exact on BCC lattices, linear on unstructured backgrounds");
+  interfacePoints.choices = {"auto", "exact", "linear"};
   ParamSpec volumeCalibration = makeParam(
       "volume_calibration", ParamType::Int, int64_t(0), "rounds",
       "per-material offsets on the indicator functions so that each material's volume matches its "
@@ -158,19 +158,27 @@ void registerCleaveMesh(ModuleRegistry& r) {
   m.params = {dbl("alpha_short", d.alpha_short, 0.0, 0.49, "", "violation threshold on short BCC edges, fraction of edge length (0 = no warping)"),
               dbl("alpha_long", d.alpha_long, 0.0, 0.49, "", "violation threshold on long BCC edges, fraction of edge length"),
               dbl("xi", d.xi, 1e-6, 0.5, "", "unstructured backgrounds: alpha = (1/2 - xi) x shortest altitude (seed §5.5.2)"),
-              dbl("blend_sigma", 0.5, 0.05, 10.0, "voxels", "smoothing of label volumes into indicator functions (0.5 keeps one-voxel layers; larger values smooth more and thin them)"),
+              dbl("blend_sigma", kDefaultBlendSigma, 0.05, 10.0, "voxels", "smoothing of label volumes into indicator functions (0.3 keeps one-voxel layers one voxel thick; larger values smooth more and thin them)"),
               strip,
+              makeParam("strip_cavities", ParamType::Bool, false, "",
+                        "strip_exterior removes the label's cavities too (air in sinuses, enclosed "
+                        "background): everything of the label"),
+              interfacePoints,
               makeParam("repair_labels", ParamType::Bool, true, "",
                         "after cleaving, relabel tets (geometry unchanged) so that labels that never touch "
                         "in the input do not share faces, and drop fragments: pieces smaller than "
                         "fragment_voxels that are not the main piece of an image component"),
               dbl("fragment_voxels", 1.0, 0.0, 1e6, "voxel volumes",
                   "largest fragment the label repair may relabel"),
-              makeParam("repair_point_contacts", ParamType::Bool, false, "",
+              makeParam("repair_point_contacts", ParamType::Bool, true, "",
                         "label repair also where labels that never touch meet at a vertex or edge "
-                        "(thin layers pinched to nothing): no such contact left, but on a coarse "
-                        "lattice the layer becomes a whole tet thick there"),
+                        "(thin layers pinched to nothing): no such contact left; the layer becomes a "
+                        "whole tet thick there, which the volume correction gives back"),
               volumeCalibration,
+              makeParam("correct_volumes", ParamType::Bool, true, "",
+                        "after the label repair, move the vertices on material interfaces along the "
+                        "interfaces' normals (a fraction of a millimetre, no dihedral angle taken outside "
+                        "the improvement's bounds) so that every material's volume equals its voxels'"),
               makeParam("improve", ParamType::Bool, true, "",
                         "after cleaving (and the label repair), label-preserving mesh improvement "
                         "toward every dihedral angle in [improve_min_angle, improve_max_angle] "

@@ -58,7 +58,7 @@ void registerComputeSizingField(ModuleRegistry& r) {
       doubleParam("min_size", d.min_size, 0.0, std::nullopt, "mm", "lower clamp of the size (0 = none)"),
       doubleParam("max_size", d.max_size, 0.0, std::nullopt, "mm",
                   "upper clamp of the size (0 = none: the longest side of the box)"),
-      doubleParam("blend_sigma", 0.5, 0.05, 10.0, "voxels",
+      doubleParam("blend_sigma", kDefaultBlendSigma, 0.05, 10.0, "voxels",
                   "smoothing of label volumes into indicator functions"),
   };
   m.summaryKeys = {"dims", "min_size_mm", "max_size_mm"};

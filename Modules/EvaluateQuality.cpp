@@ -93,18 +93,22 @@ public:
                               formatDouble(maxBound) + " deg" + outside("max_dihedral", false, maxBound) +
                               " (CleaveMesh improve / ImproveMesh lower it)");
     for (const auto& [key, value] : report.entries()) ctx.report().set(key, value);
+    std::string msg;
     if (!failures.empty()) {
-      std::string msg = "the mesh fails its certificate: ";
+      msg = "the mesh fails its certificate: ";
       for (size_t i = 0; i < failures.size(); ++i) msg += (i ? "; " : "") + failures[i];
-      throw ProcessingError(msg);
     }
     if (!angleFailures.empty()) {
-      std::string msg = "the mesh fails its angle bounds: ";
+      msg += std::string(msg.empty() ? "" : "; ") + "the mesh fails its angle bounds: ";
       for (size_t i = 0; i < angleFailures.size(); ++i) msg += (i ? "; " : "") + angleFailures[i];
-      throw ProcessingError(msg);
     }
+    const bool passOn = ctx.getString("gate") == "pass_on";
+    if (!msg.empty() && !passOn) throw ProcessingError(msg);
     ctx.setOutput(0, makeData<TetMeshData>(std::move(out)));
     ctx.setOutput(1, makeData<ReportData>(std::move(report)));
+    // The mesh goes on (with its certificate_flags) to be written and looked at; the module and the
+    // run still fail.
+    if (!msg.empty()) throw GateFailure(msg + " (the mesh is passed on: gate = pass_on)");
   }
 };
 } // namespace
@@ -138,6 +142,11 @@ void registerEvaluateQuality(ModuleRegistry& r) {
   bin.max = 90.0;
   bin.unit = "deg";
   bin.description = "bin width of the histogram of per-tet minimum dihedral angles (0..180 deg)";
+  ParamSpec gate = makeParam("gate", ParamType::Enum, std::string("pass_on"), "",
+                             "when a threshold fails: pass_on = the mesh (with its certificate_flags) still "
+                             "goes downstream to be written and shown, the module and the run fail; stop = "
+                             "nothing downstream runs");
+  gate.choices = {"pass_on", "stop"};
   m.params = {
       bin,
       makeParam("certificate", ParamType::Bool, true, "",
@@ -153,7 +162,8 @@ void registerEvaluateQuality(ModuleRegistry& r) {
       doubleParam("require_min_dihedral", 0.0, 0.0, 90.0, "deg",
                   "fail when any tet's smallest dihedral angle is below this (0 = no check)"),
       doubleParam("require_max_dihedral", 180.0, 60.0, 180.0, "deg",
-                  "fail when any tet's largest dihedral angle is above this (180 = no check)")};
+                  "fail when any tet's largest dihedral angle is above this (180 = no check)"),
+      gate};
   m.summaryKeys = {"tets", "min_dihedral_deg", "max_dihedral_deg", "valid", "cert_passed"};
   m.factory = [] { return std::make_unique<EvaluateQuality>(); };
   r.add(std::move(m));

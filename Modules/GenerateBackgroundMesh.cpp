@@ -1,10 +1,12 @@
 // GenerateBackgroundMesh: the background tet mesh that cleaving deforms (seed §4.4).
 #include <algorithm>
+#include <optional>
 #include <sstream>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/BackgroundMesh/OctreeBcc.h"
 #include "Algorithms/BackgroundMesh/Particles.h"
+#include "Algorithms/BackgroundMesh/ThinLayers.h"
 #include "StandardModules.h"
 
 namespace tetflow {
@@ -62,6 +64,20 @@ public:
     BackgroundMesh bg;
     Report& r = ctx.report();
     r.set("kind", kind);
+    // Thin layers: the labels the edges are checked against (the argmax of indicator functions).
+    const std::string thinMode = ctx.getString("refine_thin_layers");
+    const bool thinOn = thinMode != "none" && kind != "particles";
+    const EdgeTopology::Mode mode = thinMode == "all" ? EdgeTopology::Mode::All : EdgeTopology::Mode::Separating;
+    std::optional<LabelVolume> argmax;
+    std::optional<EdgeTopology> thin;
+    if (thinOn) {
+      if (in->type() == PortType::LabelVolume) {
+        thin.emplace(ctx.inputAs<LabelVolumeData>(0).value, mode);
+      } else {
+        argmax.emplace(ctx.inputAs<MaterialsData>(0).value->dominantLabels());
+        thin.emplace(*argmax, mode);
+      }
+    }
     if (kind == "particles") {
       if (!haveSizing)
         throw InputError("kind particles needs a sizing field on input port 1 'sizing': connect "
@@ -95,11 +111,12 @@ public:
       p.min_cell_size = ctx.getDouble("min_cell_size");
       p.max_cell_size = ctx.getDouble("max_cell_size");
       p.padding = ctx.getDouble("padding");
+      p.thin_layer_cell_size = ctx.getDouble("thin_layer_cell_size");
       std::shared_ptr<const MaterialSet> mats;
       if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
       const ScalarVolume& sizing = ctx.inputAs<ScalarVolumeData>(1).value;
       warnIfApart(ctx, grid, sizing);
-      OctreeBccResult o = generateOctreeBcc(grid, sizing, p, ctx.progress(), mats.get());
+      OctreeBccResult o = generateOctreeBcc(grid, sizing, p, ctx.progress(), mats.get(), thin ? &*thin : nullptr);
       bg = std::move(o.background);
       r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
                               std::to_string(bg.cells[2]));
@@ -111,7 +128,18 @@ public:
       BccParams p;
       p.cell_size = ctx.getDouble("cell_size");
       p.padding = ctx.getDouble("padding");
-      bg = generateRegularBcc(grid, p, ctx.progress());
+      if (thin) {
+        OctreeBccParams op;
+        op.thin_layer_cell_size = ctx.getDouble("thin_layer_cell_size");
+        std::shared_ptr<const MaterialSet> mats;
+        if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
+        OctreeBccResult o = generateThinLayerBcc(grid, p, op, *thin, ctx.progress(), mats.get());
+        bg = std::move(o.background);
+        reportThinLayers(o.stats, r);
+        if (o.stats.thinLayerSplits > 0) r.set("levels", ReportValue(int64_t(o.stats.levels)));
+      } else {
+        bg = generateRegularBcc(grid, p, ctx.progress());
+      }
       r.set("cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
                          std::to_string(bg.cells[2]));
       r.set("cell_size_mm", triple(bg.cellSize[0], bg.cellSize[1], bg.cellSize[2]));
@@ -151,7 +179,7 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   ParamSpec uni = makeParam("uniform_interfaces", ParamType::Bool, false, "",
                             "octree_bcc: refine until no graded (transition or bisected) tet is cut by a "
                             "material interface (seed §4.8.1); better angles after cleaving, more tets");
-  ParamSpec sigma = doubleParam("blend_sigma", 0.5, 0.05, 10.0, "voxels",
+  ParamSpec sigma = doubleParam("blend_sigma", kDefaultBlendSigma, 0.05, 10.0, "voxels",
                                 "uniform_interfaces with a label volume: smoothing into indicator "
                                 "functions (use CleaveMesh's value)");
   const ParticleParams pd;
@@ -171,7 +199,16 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
                               "particles: seed of the initial placement (the result is the same for any thread count)");
   pseed.min = 0.0;
   pseed.max = 2147483647.0;
-  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, pmin, pmax, pseed};
+  ParamSpec thinOn = makeParam("refine_thin_layers", ParamType::Enum, std::string("separating"), "",
+                               "regular_bcc and octree_bcc: split the cells whose edges miss a layer of the "
+                               "voxels (seed §6.2) down to thin_layer_cell_size: separating = only where the "
+                               "missed layer keeps apart two labels that never touch (the CSF between skull "
+                               "and brain); all = every layer and sheet thinner than the cells (many more "
+                               "tets on a real head); none = the lattice as it is");
+  thinOn.choices = {"separating", "all", "none"};
+  ParamSpec thinCell = doubleParam("thin_layer_cell_size", 0.0, 0.0, std::nullopt, "mm",
+                                   "refine_thin_layers: splitting stops at cells no longer than this (0 = sqrt 2 x the voxel size: cells within a factor sqrt 2 of the voxels)");
+  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, pmin, pmax, pseed, thinOn, thinCell};
   m.summaryKeys = {"cells", "levels", "tets"};
   m.factory = [] { return std::make_unique<GenerateBackgroundMesh>(); };
   r.add(std::move(m));

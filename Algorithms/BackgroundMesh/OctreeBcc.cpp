@@ -10,12 +10,14 @@
 #include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/MemoryBudget.h"
+#include "ThinLayers.h"
 
 namespace tetflow {
 
 namespace {
 
 constexpr int kMaxLevels = 12; // levels below the roots
+constexpr int kThinRounds = 2; // mesh rounds of the thin-layer refinement (graded tets only)
 constexpr int64_t kMaxTets = (int64_t(1) << 31) - 1;
 constexpr double kOctreeBytesPerLeaf = 16 * kBccBytesPerTet + 64;
 
@@ -112,7 +114,7 @@ void SizingOctree::split(uint64_t key, std::vector<uint64_t>* touched) {
   }
 }
 
-int64_t SizingOctree::balance(std::vector<uint64_t> queue, const Progress* progress) {
+int64_t SizingOctree::balance(std::vector<uint64_t> queue, const Progress* progress, std::vector<uint64_t>* created) {
   int64_t splits = 0, popped = 0;
   const int L = finestLevel;
   while (!queue.empty()) {
@@ -129,7 +131,9 @@ int64_t SizingOctree::balance(std::vector<uint64_t> queue, const Progress* progr
       const std::array<int64_t, 3> f = neighbourProbe(idx, s, d);
       for (int m = levelAt(f); m >= 0 && m < l - 1; m = levelAt(f)) {
         const int sh = L - m;
+        const size_t before = queue.size();
         split(leafKey(m, f[0] >> sh, f[1] >> sh, f[2] >> sh), &queue);
+        if (created) created->insert(created->end(), queue.begin() + std::ptrdiff_t(before), queue.end());
         ++splits;
       }
     }
@@ -163,8 +167,141 @@ Vec3 SizingOctree::halfToLocal(int64_t x, int64_t y, int64_t z) const {
           lo[2] + double(z) * rootSize[2] / fine};
 }
 
+namespace {
+
+// Does one of the leaf's BCC edges miss a material? Its 12 cube edges, the 8 from its centre to
+// its corners, and the 6 from its centre to the centres of same-size neighbours (to the face centre
+// on the box), as if every neighbour were of its size.
+bool leafMissesMaterial(const SizingOctree& tree, uint64_t key, const GridGeometry& grid, const EdgeTopology& topo) {
+  const int L = tree.finestLevel;
+  const auto idx = keyIndex(key);
+  const int64_t s = int64_t(1) << (L - keyLevel(key));
+  auto at = [&](int64_t x, int64_t y, int64_t z) { return grid.origin + mul(grid.direction, tree.halfToLocal(x, y, z)); };
+  Vec3 corner[8];
+  for (int q = 0; q < 8; ++q)
+    corner[q] = at(2 * s * (idx[0] + (q & 1)), 2 * s * (idx[1] + ((q >> 1) & 1)), 2 * s * (idx[2] + ((q >> 2) & 1)));
+  const std::array<int64_t, 3> c{2 * s * idx[0] + s, 2 * s * idx[1] + s, 2 * s * idx[2] + s};
+  const Vec3 centre = at(c[0], c[1], c[2]);
+  for (int q = 0; q < 8; ++q)
+    if (topo.missesMaterial(centre, corner[q])) return true;
+  for (int q = 0; q < 8; ++q)
+    for (int bit = 1; bit < 8; bit <<= 1)
+      if (!(q & bit) && topo.missesMaterial(corner[q], corner[q | bit])) return true;
+  for (int a = 0; a < 3; ++a)
+    for (int sign = -1; sign <= 1; sign += 2) {
+      std::array<int64_t, 3> o = c;
+      const int64_t end = 2 * (tree.roots[size_t(a)] << L);
+      o[size_t(a)] += sign * 2 * s;
+      if (o[size_t(a)] >= 0 && o[size_t(a)] <= end) {
+        if (topo.missesMaterial(centre, at(o[0], o[1], o[2]))) return true;
+        continue;
+      }
+      // On the box: the face centre, joined to the centre and to the face's corners.
+      o[size_t(a)] = c[size_t(a)] + sign * s;
+      const Vec3 fc = at(o[0], o[1], o[2]);
+      if (topo.missesMaterial(centre, fc)) return true;
+      const int bit = 1 << a;
+      for (int q = 0; q < 8; ++q)
+        if (((q & bit) != 0) == (sign > 0) && topo.missesMaterial(fc, corner[q])) return true;
+    }
+  return false;
+}
+
+// Splits the candidate leaves above tree.thinLevel while an edge of theirs misses a material
+// (children are tested in turn), then restores the balance, and tests the leaves the balance made
+// in turn, until nothing splits. Leaves are visited in key order, so the tree does not depend on
+// the thread count. Returns the leaves split for thin layers.
+int64_t splitThinLayerLeaves(SizingOctree& tree, const GridGeometry& grid, const EdgeTopology& topo, Progress& progress,
+                             std::vector<uint64_t> cand, OctreeBccStats& st) {
+  int64_t splits = 0;
+  std::vector<uint64_t> touched;
+  auto keep = [&](std::vector<uint64_t>& v) {
+    v.erase(std::remove_if(v.begin(), v.end(),
+                           [&](uint64_t k) { return keyLevel(k) >= tree.thinLevel || !tree.leafSet.count(k); }),
+            v.end());
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  };
+  keep(cand);
+  while (!cand.empty()) {
+    while (!cand.empty()) {
+      std::vector<uint8_t> flag(cand.size(), 0);
+      const int64_t nc = int64_t(cand.size());
+      LoopCancel cancel(progress);
+#pragma omp parallel for schedule(dynamic, 256)
+      for (int64_t c = 0; c < nc; ++c) {
+        if (cancel.skip(c)) continue;
+        flag[size_t(c)] = leafMissesMaterial(tree, cand[size_t(c)], grid, topo) ? 1 : 0;
+      }
+      cancel.rethrow();
+      std::vector<uint64_t> next;
+      for (size_t c = 0; c < cand.size(); ++c) {
+        if (!flag[c]) continue;
+        tree.split(cand[c], &next);
+        ++splits;
+      }
+      touched.insert(touched.end(), next.begin(), next.end());
+      const double leaves = double(tree.leafSet.size());
+      // Leaves at thin layers go as the thin-layer cell size^-2.
+      requireMemory(kOctreeBytesPerLeaf * leaves,
+                    "the octree refined at thin layers (" + std::to_string(tree.leafSet.size()) + " leaves)",
+                    [&](double avail) {
+                      const double need = st.thinLayerCellSize * std::sqrt(kOctreeBytesPerLeaf * leaves / std::max(avail, 1.0)) * 1.05;
+                      return "raise thin_layer_cell_size to >= " + formatNumber(roundUpForAdvice(need)) +
+                             " mm, or set refine_thin_layers to none";
+                    });
+      if (leaves * 24 > double(kMaxTets))
+        throw InputError("refining the background at thin layers asks for more than " + std::to_string(kMaxTets / 24) +
+                         " octree leaves; raise thin_layer_cell_size or cell_size");
+      keep(next);
+      cand.swap(next);
+      progress.checkCancel();
+    }
+    // The balance splits leaves whose new edges have not been tested yet.
+    std::vector<uint64_t> created;
+    st.balanceSplits += tree.balance(std::move(touched), &progress, &created);
+    touched.clear();
+    keep(created);
+    cand.swap(created);
+  }
+  return splits;
+}
+
+// The level whose leaves first have a longest edge <= cell (mm); 0 when the roots do.
+int levelFor(double rootLongest, double cell) {
+  int l = 0;
+  while (l <= kMaxLevels && rootLongest / double(int64_t(1) << l) > cell * (1 + 1e-9)) ++l;
+  return l;
+}
+
+double thinCellSize(const OctreeBccParams& p, const EdgeTopology& topo) {
+  if (!(p.thin_layer_cell_size >= 0.0) || !std::isfinite(p.thin_layer_cell_size))
+    throw InputError("thin_layer_cell_size must be >= 0 mm (0 = the voxel size, within a factor sqrt 2)");
+  // By default the level whose cells are nearest the voxel size: at most sqrt(2) voxels, so that
+  // halving gives no less than 1 / sqrt(2) voxels.
+  return p.thin_layer_cell_size > 0 ? p.thin_layer_cell_size : std::sqrt(2.0) * topo.voxelSize();
+}
+
+void requireLevels(int L, const std::array<int64_t, 3>& n, double rootLongest, double thinCell) {
+  if (L > kMaxLevels) {
+    std::ostringstream m;
+    m << "thin_layer_cell_size " << thinCell << " mm needs more than " << kMaxLevels
+      << " octree levels below cells of " << rootLongest << " mm; raise thin_layer_cell_size";
+    throw InputError(m.str());
+  }
+  for (int a = 0; a < 3; ++a)
+    if ((n[size_t(a)] << L) >= (int64_t(1) << 20)) {
+      std::ostringstream m;
+      m << "refining at thin layers would give " << (n[size_t(a)] << L) << " finest cells along axis " << a
+        << "; raise thin_layer_cell_size";
+      throw InputError(m.str());
+    }
+}
+
+} // namespace
+
 SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& p,
-                               OctreeBccStats& st, Progress& progress) {
+                               OctreeBccStats& st, Progress& progress, const EdgeTopology* thin) {
   grid.validate("background mesh: volume");
   if (!(p.padding >= 0.0) || !std::isfinite(p.padding)) throw InputError("padding must be >= 0 mm");
   if (!(p.min_cell_size >= 0.0) || !std::isfinite(p.min_cell_size))
@@ -222,8 +359,17 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
         << "; raise min_cell_size or max_cell_size";
       throw InputError(m.str());
     }
+  int thinLevel = 0;
+  if (thin) {
+    const double thinCell = thinCellSize(p, *thin);
+    thinLevel = levelFor(rootLongest, thinCell);
+    requireLevels(thinLevel, {n[0], n[1], n[2]}, rootLongest, thinCell);
+    L = std::max(L, thinLevel);
+    st.thinLayerCellSize = rootLongest / double(int64_t(1) << thinLevel);
+  }
   SizingOctree tree;
   tree.finestLevel = L;
+  tree.thinLevel = thinLevel;
   tree.roots = {n[0], n[1], n[2]};
   tree.lo = lo;
   tree.boxLength = len;
@@ -299,7 +445,12 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   tree.leafSet = std::move(leaves);
   std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
   cancellableSort(all, progress);
-  st.balanceSplits += tree.balance(std::move(all), &progress);
+  st.balanceSplits += tree.balance(all, &progress);
+  if (thin) {
+    progress.beginStage("thin layers");
+    all.assign(tree.leafSet.begin(), tree.leafSet.end());
+    st.thinLayerSplits += splitThinLayerLeaves(tree, grid, *thin, progress, std::move(all), st);
+  }
   progress.checkCancel();
   tree.finish(st, &progress);
   progress.endStage();
@@ -490,14 +641,56 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
 
 } // namespace
 
-OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
-                                  const OctreeBccParams& p, Progress& progress, const MaterialSet* materials) {
-  OctreeBccResult result;
+namespace {
+
+// Meshes a balanced tree; with `thin`, splits the leaves of tets whose edges miss a material and
+// meshes again; with `materials`, keeps graded tets off the interfaces (see the header).
+void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry& grid, Progress& progress,
+                const MaterialSet* materials, const EdgeTopology* thin) {
   OctreeBccStats& st = result.stats;
-  SizingOctree tree = buildSizingOctree(grid, sizing, p, st, progress);
   progress.beginStage("tets");
   TreeMesh tm = meshFromTree(tree, grid, progress);
   progress.endStage();
+  if (thin && tree.thinLevel > 0) {
+    progress.beginStage("thin layer rounds");
+    for (int round = 0;; ++round) {
+      // Only the graded tets have edges the leaves' own test did not see.
+      const std::vector<uint8_t> miss = tetsMissingMaterials(tm.bg.mesh, *thin, progress, &tm.graded);
+      std::vector<uint64_t> toSplit;
+      int64_t left = 0;
+      for (size_t t = 0; t < miss.size(); ++t) {
+        if (!miss[t]) continue;
+        const auto [a, b] = tm.owner[t];
+        const int la = tree.leafLevel(size_t(a)), lb = b >= 0 ? tree.leafLevel(size_t(b)) : la;
+        bool split = false;
+        if (la < tree.thinLevel && la <= lb) {
+          toSplit.push_back(tree.leaves[size_t(a)]);
+          split = true;
+        }
+        if (b >= 0 && lb < tree.thinLevel && lb <= la) {
+          toSplit.push_back(tree.leaves[size_t(b)]);
+          split = true;
+        }
+        if (!split) ++left;
+      }
+      st.thinLayerTetsLeft = left;
+      st.thinLayerRounds = round;
+      std::sort(toSplit.begin(), toSplit.end());
+      toSplit.erase(std::unique(toSplit.begin(), toSplit.end()), toSplit.end());
+      if (toSplit.empty() || round == kThinRounds) break;
+      std::vector<uint64_t> touched;
+      for (uint64_t key : toSplit) tree.split(key, &touched);
+      st.thinLayerSplits += int64_t(toSplit.size());
+      std::vector<uint64_t> created;
+      st.balanceSplits += tree.balance(touched, &progress, &created);
+      touched.insert(touched.end(), created.begin(), created.end());
+      st.thinLayerSplits += splitThinLayerLeaves(tree, grid, *thin, progress, std::move(touched), st);
+      tree.finish(st, &progress);
+      tm = meshFromTree(tree, grid, progress);
+      progress.checkCancel();
+    }
+    progress.endStage();
+  }
   if (materials) {
     // Keep the graded tets away from the material interfaces (seed §4.8.1): a transition or
     // bisected tet whose vertices do not all carry the same dominant material has its coarser
@@ -597,6 +790,59 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
   st.bisectedTets = tm.bisectedTets;
   result.background = std::move(tm.bg);
   result.graded = std::move(tm.graded);
+}
+
+} // namespace
+
+OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& p,
+                                  Progress& progress, const MaterialSet* materials, const EdgeTopology* thin) {
+  OctreeBccResult result;
+  SizingOctree tree = buildSizingOctree(grid, sizing, p, result.stats, progress, thin);
+  meshOctree(result, tree, grid, progress, materials, thin);
+  return result;
+}
+
+OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& bcc, const OctreeBccParams& p,
+                                     const EdgeTopology& thin, Progress& progress, const MaterialSet* materials) {
+  grid.validate("background mesh: volume");
+  if (!(bcc.cell_size > 0.0) || !std::isfinite(bcc.cell_size)) throw InputError("cell_size must be a positive number of mm");
+  if (!(bcc.padding >= 0.0) || !std::isfinite(bcc.padding)) throw InputError("padding must be >= 0 mm");
+  OctreeBccResult result;
+  OctreeBccStats& st = result.stats;
+  // The regular lattice's cells (BccLattice.cpp) as the roots.
+  SizingOctree tree;
+  double rootLongest = 0;
+  for (int a = 0; a < 3; ++a) {
+    tree.lo[a] = -0.5 * grid.spacing[a] - bcc.padding;
+    tree.boxLength[a] = double(grid.dims[size_t(a)]) * grid.spacing[a] + 2.0 * bcc.padding;
+    tree.roots[size_t(a)] = std::max<int64_t>(1, std::llround(tree.boxLength[a] / bcc.cell_size));
+    tree.rootSize[a] = tree.boxLength[a] / double(tree.roots[size_t(a)]);
+    rootLongest = std::max(rootLongest, tree.rootSize[a]);
+  }
+  const double thinCell = thinCellSize(p, thin);
+  tree.thinLevel = levelFor(rootLongest, thinCell);
+  if (tree.thinLevel == 0) { // cells already as fine as asked: the regular lattice
+    result.background = generateRegularBcc(grid, bcc, progress);
+    return result;
+  }
+  requireLevels(tree.thinLevel, tree.roots, rootLongest, thinCell);
+  tree.finestLevel = tree.thinLevel;
+  st.thinLayerCellSize = rootLongest / double(int64_t(1) << tree.thinLevel);
+  if (double(tree.roots[0]) * double(tree.roots[1]) * double(tree.roots[2]) * 12.0 > double(kMaxTets))
+    throw InputError("cell_size " + formatNumber(bcc.cell_size) + " mm gives too many cells for one mesh; use a larger cell_size");
+  progress.beginStage("thin layers");
+  for (int64_t k = 0; k < tree.roots[2]; ++k)
+    for (int64_t j = 0; j < tree.roots[1]; ++j)
+      for (int64_t i = 0; i < tree.roots[0]; ++i) tree.leafSet.insert(leafKey(0, i, j, k));
+  std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
+  st.thinLayerSplits = splitThinLayerLeaves(tree, grid, thin, progress, std::move(all), st);
+  if (st.thinLayerSplits == 0) {
+    result.background = generateRegularBcc(grid, bcc, progress);
+    return result;
+  }
+  tree.finish(st, &progress);
+  progress.endStage();
+  meshOctree(result, tree, grid, progress, materials, &thin);
   return result;
 }
 
@@ -616,6 +862,15 @@ void reportOctreeBcc(const OctreeBccStats& s, Report& r) {
   r.set("bisected_tets", ReportValue(s.bisectedTets));
   r.set("root_cell_size_mm", ReportValue(s.rootCellSize));
   r.set("finest_cell_size_mm", ReportValue(s.finestCellSize));
+  reportThinLayers(s, r);
+}
+
+void reportThinLayers(const OctreeBccStats& s, Report& r) {
+  if (s.thinLayerCellSize <= 0) return;
+  r.set("thin_layer_cell_size_mm", ReportValue(s.thinLayerCellSize));
+  r.set("thin_layer_splits", ReportValue(s.thinLayerSplits));
+  r.set("thin_layer_rounds", ReportValue(int64_t(s.thinLayerRounds)));
+  r.set("thin_layer_tets_left", ReportValue(s.thinLayerTetsLeft));
 }
 
 } // namespace tetflow

@@ -41,6 +41,10 @@ struct OctreeBccParams {
   double min_cell_size = 0.0; // mm, leaves stop splitting at this edge; 0 = the sizing field's minimum
   double max_cell_size = 0.0; // mm, root cell edge; 0 = the sizing field's maximum
   double padding = 0.0;       // mm added around the volume's box on every side (>= 0)
+  // With an EdgeTopology (ThinLayers.h): leaves holding an edge that misses a material are split
+  // until their longest edge is at most this (mm); 0 = sqrt(2) x the largest voxel spacing (the
+  // leaves there are then within a factor sqrt(2) of the voxel size).
+  double thin_layer_cell_size = 0.0;
 };
 
 struct OctreeBccStats {
@@ -54,6 +58,13 @@ struct OctreeBccStats {
   int64_t bisectedTets = 0;             // tets on a split edge (two per split edge and piece)
   double rootCellSize = 0.0;            // mm, longest edge of a root cell
   double finestCellSize = 0.0;          // mm, longest edge of the smallest leaf
+  // Thin layers (with an EdgeTopology): leaves split because an edge of theirs missed a material
+  // (before meshing, on the leaf's own BCC edges, and in rounds on the meshed tets), and the tets
+  // whose edges still miss one at the thin-layer cell size (left to the label repair).
+  int64_t thinLayerSplits = 0;
+  int thinLayerRounds = 0;
+  int64_t thinLayerTetsLeft = 0;
+  double thinLayerCellSize = 0.0;       // mm, longest edge of a leaf at the thin-layer level (0: off)
 };
 
 struct OctreeBccResult {
@@ -67,7 +78,8 @@ struct OctreeBccResult {
 // index leafIndex(i) at that level: it spans lo + index * rootSize / 2^level over one cell of
 // rootSize / 2^level. Leaves are sorted by (level, z, y, x) and tile the box.
 struct SizingOctree {
-  int finestLevel = 0;                   // deepest level allowed by min_cell_size
+  int finestLevel = 0;                   // deepest level allowed by min_cell_size (and thin layers)
+  int thinLevel = 0;                     // thin layers: leaves above this level may be split
   std::array<int64_t, 3> roots{0, 0, 0}; // root cells per axis
   Vec3 lo{0, 0, 0}, boxLength{0, 0, 0}, rootSize{0, 0, 0}; // mm
   std::vector<uint64_t> leaves;          // packed keys, sorted
@@ -83,12 +95,16 @@ struct SizingOctree {
   // into its 8 children (appended to *touched when given); restore the 2:1 balance around the
   // leaves in `queue` and everything split meanwhile, returning the number of splits.
   void split(uint64_t key, std::vector<uint64_t>* touched);
-  int64_t balance(std::vector<uint64_t> queue, const Progress* progress = nullptr);
+  // `created` (when given) receives the leaves the balance made.
+  int64_t balance(std::vector<uint64_t> queue, const Progress* progress = nullptr,
+                  std::vector<uint64_t>* created = nullptr);
   void finish(OctreeBccStats& stats, const Progress* progress = nullptr);
 };
-// Refines and balances as described above; fills stats except the tet counts.
+class EdgeTopology;
+// Refines and balances as described above (and for thin layers, with `thin`); fills stats except
+// the tet counts.
 SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& sizing, const OctreeBccParams& params,
-                               OctreeBccStats& stats, Progress& progress);
+                               OctreeBccStats& stats, Progress& progress, const EdgeTopology* thin = nullptr);
 
 // `sizing`: a scalar volume of element sizes in mm (e.g. ComputeSizingField's output), any grid;
 // every value must be finite and > 0. Throws InputError naming the culprit (parameters, a bad
@@ -101,10 +117,23 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
 // homogeneous regions). Such a leaf is always above the finest level, so every round splits;
 // after at most 100 rounds the graded tets still cut are counted in stats.gradedInterfaceTets
 // (0 when the rule holds everywhere).
+// With `thin` (ThinLayers.h), leaves are split where an edge misses a material, down to
+// params.thin_layer_cell_size: first on each leaf's own BCC edges (as if its neighbours were of its
+// size) while refining, then in rounds on the tets of the balanced mesh (the leaves on either side
+// of a tet whose edge misses one, the coarser, or both when equal) until none is left above that
+// size (at most 2 rounds).
 OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& sizing,
                                   const OctreeBccParams& params, Progress& progress,
-                                  const MaterialSet* materials = nullptr);
+                                  const MaterialSet* materials = nullptr, const EdgeTopology* thin = nullptr);
+
+// A regular BCC lattice (BccLattice.h: the same cells) whose cells are split, as an octree, where
+// an edge misses a material (above), down to params.thin_layer_cell_size. Without such an edge it
+// is generateRegularBcc's lattice itself. min/max_cell_size are not used.
+OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& bcc, const OctreeBccParams& params,
+                                     const EdgeTopology& thin, Progress& progress, const MaterialSet* materials = nullptr);
 
 void reportOctreeBcc(const OctreeBccStats& stats, Report& report);
+// thin_layer_* keys (nothing when thin layers were not refined).
+void reportThinLayers(const OctreeBccStats& stats, Report& report);
 
 } // namespace tetflow

@@ -63,6 +63,17 @@ struct CleaveParams {
   // Raise the smallest dihedral angles after stencilling by moving vertices along their
   // interfaces (see "optimize" above); the box does not move.
   bool optimize_angles = true;
+  // Where an interface point goes on an edge: Exact = where the materials' functions cross, found
+  // on the functions themselves (Illinois regula falsi to interface_tolerance, from the linear
+  // guess), with triples and quadruples solved on linear models made to vanish at those cuts;
+  // Linear = where the linear interpolation of the two end samples crosses (the seed, Cleaver).
+  // Auto = Exact on BCC lattices, Linear on unstructured backgrounds: a one-voxel layer keeps its
+  // thickness on lattices fine enough to see it, while on particle backgrounds (coarser than the
+  // layers they cross, per-vertex alphas) exact points left twice the tets below 10 degrees for the
+  // improvement (46 k against 9.5 k on the head, README "Mesh certificate").
+  enum class InterfacePoints : uint8_t { Auto = 0, Exact = 1, Linear = 2 };
+  InterfacePoints interface_points = InterfacePoints::Auto;
+  double interface_tolerance = 0.01; // mm
 };
 
 struct CleaveStats {

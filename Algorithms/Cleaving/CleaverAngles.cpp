@@ -16,9 +16,7 @@ void Cleaver::optimizeAngles(TetMesh& out) {
   constexpr double kTarget = 12.0; // degrees: tets scoring below this are worked on
   // Score of a tet: its smallest dihedral angle or 180 minus its largest, whichever is worse.
   auto tetMin = [&](const TetMesh::Tet& q) {
-    const auto a = dihedralAngles(out.points[q[0]], out.points[q[1]], out.points[q[2]], out.points[q[3]]);
-    const auto [lo, hi] = std::minmax_element(a.begin(), a.end());
-    return std::min(*lo, 180.0 - *hi);
+    return dihedralScore(out.points[q[0]], out.points[q[1]], out.points[q[2]], out.points[q[3]]);
   };
   const int64_t np = static_cast<int64_t>(out.points.size());
   std::vector<uint8_t> candidate(static_cast<size_t>(np), 0);

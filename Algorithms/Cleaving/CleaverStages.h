@@ -83,7 +83,9 @@ inline double alphaFraction(double a) { return std::clamp(a, 0.0, 0.49); }
 class Cleaver {
 public:
   Cleaver(const BackgroundMesh& bg, const MaterialSet& mats, const CleaveParams& p, Progress& progress)
-      : bg_(bg), m_(bg.mesh), mats_(mats), p_(p), progress_(progress), flags_(buildFlags()) {}
+      : bg_(bg), m_(bg.mesh), mats_(mats), p_(p), progress_(progress), flags_(buildFlags()),
+        exact_(p.interface_points == CleaveParams::InterfacePoints::Exact ||
+               (p.interface_points == CleaveParams::InterfacePoints::Auto && !bg.kind.empty())) {}
 
   CleaveResult run();
 
@@ -95,6 +97,7 @@ private:
   const CleaveParams& p_;
   Progress& progress_;
   const std::vector<Flag> flags_;
+  const bool exact_; // interface points where the functions cross (CleaveParams::interface_points)
   CleaveStats stats_;
 
   std::vector<Vec3> pos_;            // current (warped) vertex positions
@@ -356,8 +359,49 @@ private:
     double t;
     if (ga <= 0) t = 0.0;
     else if (gb >= 0) t = 1.0;
-    else t = ga / (ga - gb);
+    else t = exact_ ? exactCrossing(v[0], v[1], la, lb, ga, gb) : ga / (ga - gb);
     cutT_[e] = static_cast<float>(std::clamp(t, 0.0, 1.0));
+  }
+  // The crossing of f_la - f_lb on the segment pos_[a] -> pos_[b] (ga > 0 > gb at its ends),
+  // by the Illinois variant of regula falsi on the materials themselves, from the linear guess.
+  double exactCrossing(int32_t a, int32_t b, int32_t la, int32_t lb, double ga, double gb) const {
+    thread_local std::vector<MaterialSample> s;
+    const Vec3 pa = pos_[a], pb = pos_[b];
+    double t0 = 0.0, t1 = 1.0, g0 = ga, g1 = gb;
+    const double len = norm(pb - pa);
+    const double tol = len > 0 ? p_.interface_tolerance / len : 1.0;
+    int side = 0;
+    double t = ga / (ga - gb);
+    for (int it = 0; it < 12; ++it) {
+      mats_.sample((1.0 - t) * pa + t * pb, s);
+      float fa = mats_.absentValue(), fb = mats_.absentValue();
+      for (const auto& x : s) {
+        if (x.material == la) fa = x.value;
+        else if (x.material == lb) fb = x.value;
+      }
+      const double g = double(fa) - double(fb);
+      if (g == 0.0) return t;
+      if (g > 0) {
+        t0 = t;
+        g0 = g;
+        if (side == 1) g1 *= 0.5;
+        side = 1;
+      } else {
+        t1 = t;
+        g1 = g;
+        if (side == -1) g0 *= 0.5;
+        side = -1;
+      }
+      if (t1 - t0 < tol) break;
+      t = (t0 * g1 - t1 * g0) / (g1 - g0);
+    }
+    return (t0 * g1 - t1 * g0) / (g1 - g0);
+  }
+  // With exact interfaces, the linear model of g = f_a - f_b that triples and quadruples solve
+  // (its values at the simplex's vertices) is made to vanish where the edge's cut is: the value at
+  // the far end gb is set to ga (t - 1) / t, so the points agree with the cuts around them.
+  static void throughCut(double ga, double& gb, double t) {
+    if (ga > 0 && t > 0.0 && t < 1.0) gb = ga * (t - 1.0) / t;
   }
   template <int N>
   static void projectBarycentric(std::array<float, N>& b) {
@@ -381,6 +425,10 @@ private:
       A(1, x) = double(value(v[x], l[0])) - value(v[x], l[2]);
       A(2, x) = 1.0;
     }
+    if (exact_) { // the zero lines through the cuts on edges (v0, v1) and (v0, v2)
+      throughCut(A(0, 0), A(0, 1), cutT_[faceEdge(f, v[0], v[1])]);
+      throughCut(A(1, 0), A(1, 2), cutT_[faceEdge(f, v[0], v[2])]);
+    }
     const double scale = A.block<2, 3>(0, 0).cwiseAbs().maxCoeff();
     std::array<float, 3> b;
     if (scale > 0 && std::abs(A.determinant()) > 1e-9 * scale * scale) {
@@ -400,6 +448,12 @@ private:
       for (int r = 0; r < 3; ++r) A(r, x) = double(value(q[x], l[0])) - value(q[x], l[r + 1]);
       A(3, x) = 1.0;
     }
+    if (exact_) // the zero planes through the cuts on edges (q0, q1), (q0, q2), (q0, q3)
+      for (int r = 0; r < 3; ++r) {
+        const int32_t e = tetEdge_[t][localEdge(0, r + 1)];
+        const double c = cutT_[e];
+        throughCut(A(r, 0), A(r, r + 1), edgeV_[e][0] == q[0] ? c : 1.0 - c);
+      }
     const double scale = A.block<3, 4>(0, 0).cwiseAbs().maxCoeff();
     std::array<float, 4> b;
     if (scale > 0 && std::abs(A.determinant()) > 1e-9 * scale * scale * scale) {

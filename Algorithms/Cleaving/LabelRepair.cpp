@@ -17,6 +17,12 @@ namespace tetflow {
 
 namespace {
 
+// Pieces that are no primary piece of an image component may go when smaller than this share of
+// the component they vote for (or of their label, voting for none), whatever fragment_voxels says:
+// on cells coarser than the voxels, the bits of a thin structure that cleaving cut off are several
+// voxels each, and a mesh can only keep such a structure in one piece.
+constexpr double kFragmentShare = 0.01;
+
 struct Allowed {
   std::unordered_set<uint64_t> pairs;
   bool ok(int32_t a, int32_t b) const { return a == b || pairs.count(labelPairKey(a, b)) > 0; }
@@ -68,9 +74,11 @@ Choice choose(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed
   return c;
 }
 
-// Per root of `sets`: 1 when the piece is the primary piece of an image component (the one with the
-// most voting volume; ties to the smaller root).
-std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, const std::vector<int32_t>& vote) {
+// Per root of `sets`: 1 when the piece is a primary piece of an image component: the one with the
+// most voting volume (ties to the smaller root), or with `keepCores`, the max(1, cores) pieces
+// with the most (a component may be in as many pieces as it has cores).
+std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, const std::vector<int32_t>& vote,
+                                   const LabelImageTopology* keepCores = nullptr) {
   std::unordered_map<uint64_t, double> votes; // (image comp, root) -> volume
   for (size_t t = 0; t < mesh.numTets(); ++t)
     if (vote[t] >= 0)
@@ -79,12 +87,14 @@ std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, cons
   std::sort(sorted.begin(), sorted.end());
   std::vector<uint8_t> primary(mesh.numTets(), 0);
   for (size_t i = 0; i < sorted.size();) {
-    size_t j = i, best = i;
-    while (j < sorted.size() && (sorted[j].first >> 32) == (sorted[i].first >> 32)) {
-      if (sorted[j].second > sorted[best].second) best = j;
-      ++j;
-    }
-    primary[size_t(uint32_t(sorted[best].first))] = 1;
+    size_t j = i;
+    while (j < sorted.size() && (sorted[j].first >> 32) == (sorted[i].first >> 32)) ++j;
+    const int32_t comp = int32_t(sorted[i].first >> 32);
+    const size_t keep = keepCores ? size_t(std::max(1, keepCores->comps[size_t(comp)].cores)) : 1;
+    std::vector<size_t> order(j - i);
+    for (size_t k = 0; k < order.size(); ++k) order[k] = i + k;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return sorted[a].second > sorted[b].second; });
+    for (size_t k = 0; k < std::min(keep, order.size()); ++k) primary[size_t(uint32_t(sorted[order[k]].first))] = 1;
     i = j;
   }
   return primary;
@@ -500,8 +510,11 @@ void repairFragments(Steps& s) {
   auto& n = s.n;
   auto& frame = s.frame;
   progress.beginStage("repair fragments");
-  const double limit = params.fragment_voxels * labels.grid.voxelVolume();
+  const double voxel = labels.grid.voxelVolume();
+  const double limit = params.fragment_voxels * voxel;
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
+  std::map<int32_t, double> labelVolume; // voxels of each label [mm^3]
+  for (const auto& c : img.comps) labelVolume[c.label] += double(c.voxels) * voxel;
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
     DisjointSets sets = sameLabelPieces(mesh, nb);
@@ -512,15 +525,35 @@ void repairFragments(Steps& s) {
       progress.checkCancelEvery(t);
       volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
     }
-    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote, &img);
     progress.checkCancel();
+    // The image component each piece votes for most (-1: none), and its size limit: fragment_voxels,
+    // or kFragmentShare of that component (of its label's voxels when it votes for none).
+    std::unordered_map<uint64_t, double> pieceVotes; // (root, comp) -> volume
+    for (int64_t t = 0; t < n; ++t)
+      if (vote[size_t(t)] >= 0)
+        pieceVotes[(uint64_t(uint32_t(sets.find(int32_t(t)))) << 32) | uint32_t(vote[size_t(t)])] +=
+            std::abs(mesh.tetVolume(size_t(t)));
+    std::vector<std::pair<uint64_t, double>> pv(pieceVotes.begin(), pieceVotes.end());
+    std::sort(pv.begin(), pv.end());
+    std::unordered_map<int32_t, std::pair<int32_t, double>> mainComp; // root -> (comp, votes)
+    for (const auto& [k, v] : pv) {
+      const int32_t r = int32_t(k >> 32), c = int32_t(uint32_t(k));
+      auto it = mainComp.find(r);
+      if (it == mainComp.end() || v > it->second.second) mainComp[r] = {c, v};
+    }
+    auto limitOf = [&](int32_t r, int32_t label) {
+      const auto it = mainComp.find(r);
+      const double of = it != mainComp.end() ? double(img.comps[size_t(it->second.first)].voxels) * voxel : labelVolume[label];
+      return std::max(limit, kFragmentShare * of);
+    };
     // Candidates: small, not primary. Their outer faces by neighbour label.
     std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
     std::vector<int64_t> candidateTets;
     for (int64_t t = 0; t < n; ++t) {
       progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
-      if (primary[size_t(r)] || volume[size_t(r)] >= limit) continue;
+      if (primary[size_t(r)] || volume[size_t(r)] >= limitOf(r, mesh.materials[size_t(t)])) continue;
       candidateTets.push_back(t);
       auto& b = border[r];
       for (int f = 0; f < 4; ++f) {
@@ -563,7 +596,7 @@ void repairFragments(Steps& s) {
 } // namespace
 
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
-                              Progress& progress) {
+                              Progress& progress, const LabelImageTopology* image) {
   if (!(params.fragment_voxels >= 0.0) || !std::isfinite(params.fragment_voxels))
     throw InputError("fragment_voxels must be a number >= 0");
   mesh.validateStructure("mesh");
@@ -572,9 +605,11 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
                                !params.points)) return st;
   const int64_t n = static_cast<int64_t>(mesh.numTets());
 
-  progress.beginStage("repair contacts");
+  progress.beginStage(params.contacts || params.points ? "repair contacts" : "repair fragments");
   const LabelVolume labels = materials.dominantLabels();
-  const LabelImageTopology img = analyzeLabelImage(labels, progress);
+  LabelImageTopology own;
+  if (!image) own = analyzeLabelImage(labels, progress);
+  const LabelImageTopology& img = image ? *image : own;
   Allowed allowed;
   for (const auto& [k, unused] : img.contacts) allowed.pairs.insert(k);
   const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);

@@ -11,7 +11,7 @@
 //    neighbour's label. Tets are taken most-wrong first (the margin of their own value over the
 //    best allowed one, smallest first). Each relabelling removes every forbidden face of its tet
 //    and creates none, so the process ends; a tet with no allowed label is left (counted).
-// 1b. Point contacts (`points`, off by default). Where two labels that never touch meet at a
+// 1b. Point contacts (`points`). Where two labels that never touch meet at a
 //    vertex or an edge (their tets share it but no face), the thin layer between them is pinched
 //    to nothing there: a non-manifold vertex of that layer, and a node that couples the two
 //    materials directly in a P1 FEM. The smaller side's tets around the vertex take the label
@@ -30,11 +30,15 @@
 //    label (allowed next to all their other neighbours) takes it. Up to 4 rounds, each on the
 //    edges of the tets the last one changed.
 // 4. Fragments. The face-connected pieces of each label vote, tet by tet, for the image component
-//    at their centroid (the certificate's rule). The piece with the most voting volume is the
-//    primary piece of its image component. A piece that is primary for no component and smaller
-//    than fragment_voxels voxel volumes is relabelled to the neighbouring label it shares the most
-//    face area with, among those allowed next to all its neighbours (kept when there is none).
-//    Rounds repeat until nothing changes (at most 8).
+//    at their centroid (the certificate's rule). The max(1, cores) pieces with the most voting
+//    volume are the primary pieces of their image component. A piece that is primary for no
+//    component and smaller than fragment_voxels voxel volumes, or than 1 % of the component it
+//    votes for most (of its label's voxels when it votes for none), is relabelled to the
+//    neighbouring label it shares the most face area with, among those allowed next to all its
+//    neighbours (kept when there is none). Rounds repeat until nothing changes (at most 8). On
+//    cells coarser than the voxels this removes the bits of a thin structure (a white-matter
+//    finger in a gyrus) that cleaving cut off from it: the component stays in one piece, and the
+//    volume correction gives the volume back.
 // Deterministic: the same result for any thread count. Stages: "repair contacts",
 // "repair connections", "repair edges", "repair fragments".
 #include <cstdint>
@@ -49,7 +53,10 @@ namespace tetflow {
 struct LabelRepairParams {
   bool contacts = true;
   bool fragments = true;
-  bool points = false; // off by default: on coarse lattices it thickens thin layers (see below)
+  // Off here; CleaveMesh (CleavePipeline.h) turns it on: with the volume correction giving back
+  // what it thickens, a pinched layer is worse (its vertices leave tets the improvement cannot
+  // raise to 10 degrees).
+  bool points = false;
   bool connect = true;
   bool edges = true;
   double fragment_voxels = 1.0; // pieces below this many voxel volumes of the input may go (>= 0)
@@ -73,9 +80,12 @@ struct LabelRepairStats {
   int fragmentRounds = 0, connectRounds = 0;
 };
 
-// Throws InputError for a negative fragment_voxels or a mesh failing validateStructure.
+// Throws InputError for a negative fragment_voxels or a mesh failing validateStructure. `image`, when
+// given, is analyzeLabelImage(materials.dominantLabels()) computed before (it is the costly part of
+// a repair that finds nothing to do).
+struct LabelImageTopology;
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
-                              Progress& progress);
+                              Progress& progress, const LabelImageTopology* image = nullptr);
 
 // repair_* keys: forbidden faces and area before and after, tets and pieces relabelled, volume.
 void writeLabelRepairReport(const LabelRepairStats& s, Report& report);

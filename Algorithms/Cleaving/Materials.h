@@ -65,6 +65,11 @@ protected:
   std::vector<double> inputVolumes_;
 };
 
+// The smoothing every module uses by default (voxels): small enough that a one-voxel layer keeps
+// its thickness where the functions cross (its interfaces lie within 0.1 % of a voxel of the voxel
+// faces), large enough that the functions are smooth between voxel centres.
+inline constexpr double kDefaultBlendSigma = 0.3;
+
 class LabelMaterials : public MaterialSet {
 public:
   // blendSigma in voxels (> 0). Throws InputError for an empty volume or bad sigma.

@@ -12,40 +12,12 @@
 namespace tetflow {
 
 namespace {
-// Extreme cosines of the 6 dihedral angles of a positive tet, from its outward face normals (the
-// angle at the edge between faces k and l has cos = -n_k.n_l / |n_k||n_l|): no trigonometry, for
-// the scans over every tet and the score. False when the tet is inverted or flat.
-bool dihedralCosRange(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double& lo, double& hi) {
-  const Vec3 e1 = p1 - p0, e2 = p2 - p0, e3 = p3 - p0;
-  const double v6 = dot(e1, cross(e2, e3)); // 6 V
-  if (!(v6 > 0)) return false;
-  // Flat (TetQuality's zero-volume test): V <= kZeroVolumeRelTol * L_max^3.
-  const Vec3 e4 = p2 - p1, e5 = p3 - p1, e6 = p3 - p2;
-  const double l2 = std::max({dot(e1, e1), dot(e2, e2), dot(e3, e3), dot(e4, e4), dot(e5, e5), dot(e6, e6)});
-  if (v6 / 6.0 <= kZeroVolumeRelTol * l2 * std::sqrt(l2)) return false;
-  Vec3 n[4];
-  n[1] = cross(e3, e2);
-  n[2] = cross(e1, e3);
-  n[3] = cross(e2, e1);
-  n[0] = -1.0 * (n[1] + n[2] + n[3]);
-  double len[4];
-  for (int k = 0; k < 4; ++k) len[k] = norm(n[k]);
-  lo = 1.0;
-  hi = -1.0;
-  for (int k = 0; k < 4; ++k)
-    for (int l = k + 1; l < 4; ++l) {
-      const double c = -dot(n[k], n[l]) / (len[k] * len[l]);
-      lo = std::min(lo, c);
-      hi = std::max(hi, c);
-    }
-  return true;
-}
 constexpr double kDeg = M_PI / 180.0;
 } // namespace
 
 double improveScore(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, double minAngle, double maxAngle) {
   double lo, hi;
-  if (!dihedralCosRange(a, b, c, d, lo, hi)) return -1.0;
+  if (!dihedralCosineRange(a, b, c, d, lo, hi)) return -1.0;
   const double smallest = std::acos(std::clamp(hi, -1.0, 1.0)) / kDeg;
   const double largest = std::acos(std::clamp(lo, -1.0, 1.0)) / kDeg;
   return std::min(smallest, (180.0 - largest) * minAngle / (180.0 - maxAngle));
@@ -167,7 +139,7 @@ void Improver::scanAll(double& mn, double& mx, int64_t& below, int64_t& above, s
     if (cancel.skip(t) || !alive_[size_t(t)]) continue;
     const Tet& q = m_.tets[size_t(t)];
     double lo = -1.0, hi = 1.0; // flat or inverted: 180 and 0 degrees
-    dihedralCosRange(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]], lo, hi);
+    dihedralCosineRange(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]], lo, hi);
     loCos = std::min(loCos, lo);
     hiCos = std::max(hiCos, hi);
     b += hi > cosMin;

@@ -146,6 +146,73 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   }
   if (cancelled) throw Cancelled();
 
+  // --- votes: every tet for the image component of its label at / next to its centroid -------
+  std::vector<int32_t> vote(mesh.numTets(), -1);
+  std::vector<int32_t> centroidVoxelComp(mesh.numTets(), -1);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nTets; ++t) {
+    const auto& q = mesh.tets[static_cast<size_t>(t)];
+    const Vec3 c = 0.25 * (ip[size_t(q[0])] + ip[size_t(q[1])] + ip[size_t(q[2])] + ip[size_t(q[3])]);
+    int64_t r[3];
+    for (int a = 0; a < 3; ++a)
+      r[a] = std::clamp<int64_t>(static_cast<int64_t>(std::llround(c[a])), 0, g.dims[a] - 1);
+    const int64_t v = r[0] + nx * (r[1] + ny * r[2]);
+    centroidVoxelComp[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(v)];
+    vote[static_cast<size_t>(t)] = voteImageComponent(labels, img.comp, c, mesh.materials[static_cast<size_t>(t)]);
+  }
+  // Stripped exteriors: a label whose components reaching the box got (almost) no tets voting for
+  // them had its exterior removed (CleaveMesh strip_exterior, or another tool); those components
+  // are left out of every comparison, its cavities are compared.
+  std::vector<uint8_t> strippedComp(img.comps.size(), 0);
+  std::map<int32_t, int64_t> strippedVoxels;
+  {
+    std::map<int32_t, std::pair<double, double>> boxVotes; // label -> (voted volume, voxel volume)
+    for (const auto& c : img.comps)
+      if (c.touchesBox) boxVotes[c.label].second += double(c.voxels) * g.voxelVolume();
+    std::vector<double> votedVolume(img.comps.size(), 0.0);
+    for (int64_t t = 0; t < nTets; ++t)
+      if (vote[size_t(t)] >= 0) votedVolume[size_t(vote[size_t(t)])] += std::abs(mesh.tetVolume(size_t(t)));
+    for (size_t c = 0; c < img.comps.size(); ++c)
+      if (img.comps[c].touchesBox) boxVotes[img.comps[c].label].first += votedVolume[c];
+    std::map<int32_t, bool> labelHasTets;
+    for (int64_t t = 0; t < nTets; ++t) labelHasTets[mesh.materials[size_t(t)]] = true;
+    for (size_t c = 0; c < img.comps.size(); ++c) {
+      const auto& ic = img.comps[c];
+      if (!ic.touchesBox || !labelHasTets[ic.label]) continue; // a label with no tets: see "excluded"
+      const auto& bv = boxVotes[ic.label];
+      if (bv.first <= kExcludedCoverage * bv.second) {
+        strippedComp[c] = 1;
+        strippedVoxels[ic.label] += ic.voxels;
+      }
+    }
+  }
+  if (!strippedVoxels.empty()) {
+    // The image's contacts without the stripped voxels.
+    img.contacts.clear();
+    const double faceArea[3] = {g.spacing[1] * g.spacing[2], g.spacing[0] * g.spacing[2], g.spacing[0] * g.spacing[1]};
+    const int64_t nz = g.dims[2];
+    for (int64_t k = 0; k < nz; ++k)
+      for (int64_t j = 0; j < ny; ++j)
+        for (int64_t i = 0; i < nx; ++i) {
+          const int64_t v = i + nx * (j + ny * k);
+          if (strippedComp[size_t(img.comp[size_t(v)])]) continue;
+          const int32_t a = labels.data[size_t(v)];
+          for (int ax = 0; ax < 3; ++ax) {
+            const int64_t d[3] = {ax == 0, ax == 1, ax == 2};
+            if (i + d[0] >= nx || j + d[1] >= ny || k + d[2] >= nz) continue;
+            const int64_t w = v + d[0] + nx * (d[1] + ny * d[2]);
+            const int32_t b = labels.data[size_t(w)];
+            if (a == b || strippedComp[size_t(img.comp[size_t(w)])]) continue;
+            auto& e = img.contacts[labelPairKey(a, b)];
+            e.first += faceArea[ax];
+            e.second.add(g.indexToPhysical(double(i) + 0.5 * double(d[0]), double(j) + 0.5 * double(d[1]),
+                                           double(k) + 0.5 * double(d[2])),
+                         faceArea[ax]);
+          }
+        }
+    progress.checkCancel();
+  }
+
   // Labels: per label figures from voxels and tets.
   CertificateResult res;
   std::map<int32_t, LabelCertificate> byLabel;
@@ -154,6 +221,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   for (int64_t v = 0; v < nVox; ++v) {
     const int32_t L = labels.data[static_cast<size_t>(v)];
     auto& lc = byLabel[L];
+    if (strippedComp[size_t(img.comp[size_t(v)])]) continue; // counted in strippedVoxels
     ++lc.voxels;
     const int32_t o = owner[static_cast<size_t>(v)];
     if (o != std::numeric_limits<int32_t>::max()) {
@@ -171,6 +239,9 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   for (auto& [L, lc] : byLabel) {
     lc.label = L;
     lc.voxelVolume = double(lc.voxels) * g.voxelVolume();
+    lc.strippedVoxels = strippedVoxels.count(L) ? strippedVoxels[L] : 0;
+    lc.strippedVolume = double(lc.strippedVoxels) * g.voxelVolume();
+    if (lc.strippedVoxels > 0) res.strippedLabels.push_back(L);
     lc.excluded = lc.tets == 0 && lc.voxels > 0 && double(covered[L]) <= kExcludedCoverage * double(lc.voxels);
     excluded[L] = lc.excluded;
     if (lc.excluded) {
@@ -188,27 +259,14 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     }
   }
   res.agreement = voxAll > 0 ? double(agreeAll) / double(voxAll) : 0.0;
-  for (const auto& c : img.comps) {
-    auto& lc = byLabel[c.label];
+  for (size_t c = 0; c < img.comps.size(); ++c) {
+    if (strippedComp[c]) continue;
+    auto& lc = byLabel[img.comps[c].label];
     ++lc.imageComponents;
-    if (c.cores > 0) ++lc.robustComponents;
+    if (img.comps[c].cores > 0) ++lc.robustComponents;
   }
   for (const auto& c : mcomps) ++byLabel[c.label].meshComponents;
 
-  // --- votes: every tet for the image component of its label at / next to its centroid -------
-  std::vector<int32_t> vote(mesh.numTets(), -1);
-  std::vector<int32_t> centroidVoxelComp(mesh.numTets(), -1);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < nTets; ++t) {
-    const auto& q = mesh.tets[static_cast<size_t>(t)];
-    const Vec3 c = 0.25 * (ip[size_t(q[0])] + ip[size_t(q[1])] + ip[size_t(q[2])] + ip[size_t(q[3])]);
-    int64_t r[3];
-    for (int a = 0; a < 3; ++a)
-      r[a] = std::clamp<int64_t>(static_cast<int64_t>(std::llround(c[a])), 0, g.dims[a] - 1);
-    const int64_t v = r[0] + nx * (r[1] + ny * r[2]);
-    centroidVoxelComp[static_cast<size_t>(t)] = img.comp[static_cast<size_t>(v)];
-    vote[static_cast<size_t>(t)] = voteImageComponent(labels, img.comp, c, mesh.materials[static_cast<size_t>(t)]);
-  }
   progress.checkCancel();
   std::unordered_map<uint64_t, double> overlap; // (mesh comp, image comp) -> volume
   for (int64_t t = 0; t < nTets; ++t) {
@@ -232,7 +290,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   std::vector<uint8_t> lostComp(img.comps.size(), 0);
   for (size_t c = 0; c < img.comps.size(); ++c) {
     const auto& ic = img.comps[c];
-    if (excluded[ic.label]) continue;
+    if (excluded[ic.label] || strippedComp[c]) continue;
     auto& pieces = piecesOf[c];
     ComponentIssue is;
     is.label = ic.label;
@@ -550,6 +608,9 @@ void writeCertificateReport(const CertificateResult& r, Report& report, size_t m
   std::string ex;
   for (int32_t L : r.excludedLabels) ex += (ex.empty() ? "" : " ") + std::to_string(L);
   report.set("cert_excluded_labels", ex);
+  std::string st;
+  for (int32_t L : r.strippedLabels) st += (st.empty() ? "" : " ") + std::to_string(L);
+  report.set("cert_stripped_labels", st.empty() ? std::string("none") : st);
   report.set("cert_voxel_agreement", ReportValue(r.agreement));
   report.set("cert_worst_volume_rel_error", ReportValue(r.worstRelError));
   report.set("cert_worst_volume_label", ReportValue(int64_t(r.worstLabel)));
@@ -568,6 +629,10 @@ void writeCertificateReport(const CertificateResult& r, Report& report, size_t m
     if (lc.excluded) {
       report.set(k + "excluded", ReportValue(true));
       continue;
+    }
+    if (lc.strippedVoxels > 0) {
+      report.set(k + "stripped_voxels", ReportValue(lc.strippedVoxels));
+      report.set(k + "stripped_mm3", ReportValue(lc.strippedVolume));
     }
     report.set(k + "voxel_volume_mm3", ReportValue(lc.voxelVolume));
     report.set(k + "mesh_volume_mm3", ReportValue(lc.meshVolume));

@@ -40,8 +40,15 @@
 // star, the tets of some label, or the tets of all other labels, in more than one group joined
 // through faces at the vertex (the label is pinched at the vertex).
 //
+// Stripped exteriors: when the components of a label that reach the volume's boundary (a voxel on
+// the box) get tets of the label voting for at most 1 % of their voxel volume, while the label has
+// tets elsewhere, that label's exterior was stripped (CleaveMesh's strip_exterior keeps cavities):
+// those components are left out of the volume (the label's voxels are its other components), the
+// component rule, the contacts (voxel pairs with a stripped voxel do not count) and the voxel
+// agreement, and are reported as stripped (voxels, mm^3). What was kept is compared with exactly
+// the voxels that were meant to be kept.
 // Excluded labels: a label of the image with no tets whose voxel centres lie outside the mesh
-// (at most 1 % inside), e.g. the background removed by CleaveMesh's strip_exterior. It is listed
+// (at most 1 % inside), e.g. the background removed entirely (strip_cavities). It is listed
 // and not compared; the faces of the mesh boundary are its contacts and are not compared either.
 // Voxel agreement: the fraction of voxel centres, over the non-excluded labels, that lie in a tet
 // of their own label (centres in no tet count as disagreeing).
@@ -104,11 +111,14 @@ struct LabelCertificate {
   int lost = 0, lostSmall = 0, split = 0, merged = 0, spurious = 0;
   double agreement = 0.0;   // fraction of this label's voxel centres inside its own tets
   int64_t nonmanifoldEdges = 0, nonmanifoldVertices = 0;
+  int64_t strippedVoxels = 0;  // voxels of a stripped exterior (not in `voxels`)
+  double strippedVolume = 0.0; // [mm^3]
 };
 
 struct CertificateResult {
   std::vector<LabelCertificate> labels; // every label of the image or the mesh, ascending
   std::vector<int32_t> excludedLabels;
+  std::vector<int32_t> strippedLabels; // labels whose exterior was stripped (their cavities compared)
   std::vector<ComponentIssue> componentIssues; // sorted: kind, then size descending
   std::vector<ContactIssue> spuriousContacts;  // area descending
   std::vector<ContactIssue> missingContacts;   // image area descending

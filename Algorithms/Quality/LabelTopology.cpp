@@ -83,6 +83,7 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
         s.comp[static_cast<size_t>(p)] = c;
         ImageComponent& ic = s.comps[static_cast<size_t>(c)];
         ++ic.voxels;
+        if (i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1) ic.touchesBox = true;
         ic.where.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
         if (isCore[static_cast<size_t>(p)]) {
           const int32_t cr = cores.find(static_cast<int32_t>(p));

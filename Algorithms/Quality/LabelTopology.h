@@ -105,6 +105,7 @@ struct ImageComponent {
   int32_t label = 0;
   int64_t voxels = 0;
   int cores = 0;
+  bool touchesBox = false; // a voxel on the volume's boundary (the component reaches the box)
   PlaceAcc where; // voxel centres, weight 1 each
 };
 

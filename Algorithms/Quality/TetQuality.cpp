@@ -97,6 +97,38 @@ std::array<double, 6> dihedralAngles(const Vec3& p0, const Vec3& p1, const Vec3&
   return anglesOf(pack(p0, p1, p2, p3));
 }
 
+bool dihedralCosineRange(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double& lo, double& hi) {
+  const Vec3 e1 = p1 - p0, e2 = p2 - p0, e3 = p3 - p0;
+  const double v6 = dot(e1, cross(e2, e3)); // 6 V
+  if (!(v6 > 0)) return false;
+  // Flat (the zero-volume test): V <= kZeroVolumeRelTol * L_max^3.
+  const Vec3 e4 = p2 - p1, e5 = p3 - p1, e6 = p3 - p2;
+  const double l2 = std::max({dot(e1, e1), dot(e2, e2), dot(e3, e3), dot(e4, e4), dot(e5, e5), dot(e6, e6)});
+  if (v6 / 6.0 <= kZeroVolumeRelTol * l2 * std::sqrt(l2)) return false;
+  Vec3 n[4];
+  n[1] = cross(e3, e2);
+  n[2] = cross(e1, e3);
+  n[3] = cross(e2, e1);
+  n[0] = -1.0 * (n[1] + n[2] + n[3]);
+  double len[4];
+  for (int k = 0; k < 4; ++k) len[k] = norm(n[k]);
+  lo = 1.0;
+  hi = -1.0;
+  for (int k = 0; k < 4; ++k)
+    for (int l = k + 1; l < 4; ++l) {
+      const double c = -dot(n[k], n[l]) / (len[k] * len[l]);
+      lo = std::min(lo, c);
+      hi = std::max(hi, c);
+    }
+  return true;
+}
+
+double dihedralScore(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
+  double lo, hi;
+  if (!dihedralCosineRange(p0, p1, p2, p3, lo, hi)) return -1.0;
+  return std::acos(std::clamp(std::max(hi, -lo), -1.0, 1.0)) * (180.0 / M_PI);
+}
+
 double minDihedral(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
   return tetMetrics(p0, p1, p2, p3).minDihedral;
 }

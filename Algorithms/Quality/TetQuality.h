@@ -60,6 +60,16 @@ bool isZeroVolume(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3
 // atan2 keeps full accuracy near 0 and 180 (acos does not). Sum over a valid tet lies in (360, 720).
 std::array<double, 6> dihedralAngles(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 
+// Extreme cosines of the 6 interior dihedral angles of a positive tet, from its outward face
+// normals n_k (the angle at the edge between faces k and l has cos = -n_k.n_l / |n_k||n_l|):
+// lo = cos(largest angle), hi = cos(smallest). No trigonometry: for scans over every tet and for
+// checks against fixed bounds. False when the tet is inverted or flat (isZeroVolume).
+bool dihedralCosineRange(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, double& lo, double& hi);
+
+// min(smallest dihedral angle, 180 - largest) [deg] from dihedralCosineRange (one acos); -1 when
+// the tet is inverted or flat.
+double dihedralScore(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
+
 // min / max of dihedralAngles() [deg]; 0 / 180 for a zero-volume tet.
 double minDihedral(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 double maxDihedral(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);

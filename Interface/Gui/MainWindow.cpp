@@ -474,8 +474,12 @@ void MainWindow::showModuleResults(const std::string& id) {
     if (mesh_) mesh_->clearData(tr("%1: not executed yet").arg(title));
     return;
   }
-  if (st->status == ModuleStatus::Error) report_->showMessage(title + ": " + qs(st->error));
-  else report_->showReport(QString("%1 — %2, %3 s").arg(title, moduleStatusName(st->status)).arg(st->seconds, 0, 'f', 3),
+  // A failed gate (EvaluateQuality gate = pass_on) keeps its report and its mesh: both are shown.
+  if (st->status == ModuleStatus::Error && !st->passedOn) report_->showMessage(title + ": " + qs(st->error));
+  else report_->showReport(QString("%1 — %2, %3 s%4")
+                               .arg(title, moduleStatusName(st->status))
+                               .arg(st->seconds, 0, 'f', 3)
+                               .arg(st->passedOn ? " — " + qs(st->error) : QString()),
                            st->report);
   if (!mesh_) return;
   DataPtr shown;

@@ -1,6 +1,8 @@
 // CleaveMesh and GenerateBackgroundMesh as modules: phantom -> background -> cleave -> quality.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "Dataflow/Executor.h"
 #include "Modules/StandardModules.h"
 #include "TestUtil.h"
@@ -52,6 +54,8 @@ TEST(CleaveMeshModule, PhantomPipelineGivesAValidMeshAndReports) {
 TEST(CleaveMeshModule, LostMaterialIsLoggedAndStripExteriorWorks) {
   Pipeline p("blob", 6.0);
   p.net.setParameterText("p", "radius", "6");
+  p.net.setParameterText("bg", "refine_thin_layers", "none"); // else the lattice finds the blob
+  p.net.setParameterText("cl", "correct_volumes", "false");
   p.net.setParameterText("cl", "strip_exterior", "0");
   ASSERT_TRUE(p.exec.execute(p.net).success);
   EXPECT_EQ(std::get<std::string>(*p.report("cl").find("materials_lost")), "2");
@@ -144,6 +148,7 @@ TEST(CleaveMeshModule, CertificateListsTheLostBlobAndItsThresholdsFailTheModule)
   test::TempDir dir;
   Pipeline p("blob", 6.0);
   p.net.setParameterText("p", "radius", "6");
+  p.net.setParameterText("bg", "refine_thin_layers", "none"); // else the lattice finds the blob
   p.net.setParameterText("cl", "strip_exterior", "0");
   p.net.addModule("WriteMesh", "w");
   p.net.setParameterText("w", "filename", dir.file("blob.vtu"));
@@ -161,15 +166,26 @@ TEST(CleaveMeshModule, CertificateListsTheLostBlobAndItsThresholdsFailTheModule)
   const auto& flags = mesh->value.cellFields.at("certificate_flags").values;
   EXPECT_GT(std::count_if(flags.begin(), flags.end(), [](double f) { return int(f) & 8; }), 0);
 
-  // require_components: the module fails naming the lost component; the writer is skipped.
+  // require_components: the module fails naming the lost component; by default (gate pass_on) the
+  // mesh still goes on and is written, with its certificate_flags; the run fails.
+  std::filesystem::remove(dir.file("blob.vtu"));
   p.net.setParameterText("q", "require_components", "true");
   EXPECT_FALSE(p.exec.execute(p.net).success);
   EXPECT_EQ(p.exec.state("q")->status, ModuleStatus::Error);
+  EXPECT_TRUE(p.exec.state("q")->passedOn);
   const std::string err = p.exec.state("q")->error;
   EXPECT_NE(err.find("the mesh fails its certificate: require_components: 1 lost"), std::string::npos) << err;
   EXPECT_NE(err.find("label 2, image component of 7 voxels"), std::string::npos) << err;
-  EXPECT_EQ(p.exec.state("w")->status, ModuleStatus::Skipped);
+  EXPECT_NE(err.find("the mesh is passed on"), std::string::npos) << err;
+  EXPECT_EQ(p.exec.state("w")->status, ModuleStatus::Done);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("blob.vtu")));
   EXPECT_FALSE(std::get<bool>(*p.report("q").find("cert_passed"))); // the report survives the failure
+  // gate = stop: nothing downstream runs.
+  p.net.setParameterText("q", "gate", "stop");
+  EXPECT_FALSE(p.exec.execute(p.net).success);
+  EXPECT_FALSE(p.exec.state("q")->passedOn);
+  EXPECT_EQ(p.exec.state("w")->status, ModuleStatus::Skipped);
+  p.net.setParameterText("q", "gate", "pass_on");
 
   // Thresholds without the label volume: an input error saying what to connect.
   for (const auto& c : std::vector<Connection>(p.net.connections()))

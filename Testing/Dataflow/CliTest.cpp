@@ -155,7 +155,8 @@ TEST(Cli, ReportPathIsCheckedBeforeRunning) {
 }
 
 namespace {
-// The blob phantom written as labels, and its mesh on a 6 mm lattice (the 7-voxel blob is lost).
+// The blob phantom written as labels, and its mesh on a 6 mm lattice not refined at thin layers
+// (the 7-voxel blob is lost).
 const char* kBlobNet = R"(<?xml version="1.0"?>
 <network version="tetflow-1">
   <modules>
@@ -164,7 +165,7 @@ const char* kBlobNet = R"(<?xml version="1.0"?>
       <var name="radius" val="{6}"/>
       <var name="voxel_size" val="{1}"/>
     </module>
-    <module id="m2" name="GenerateBackgroundMesh"><var name="cell_size" val="{CELL}"/></module>
+    <module id="m2" name="GenerateBackgroundMesh"><var name="cell_size" val="{CELL}"/><var name="refine_thin_layers" val="{none}"/></module>
     <module id="m3" name="CleaveMesh"><var name="strip_exterior" val="{0}"/></module>
     <module id="m4" name="WriteMesh"><var name="filename" val="{blob.vtu}"/></module>
     <module id="m5" name="WriteVolume"><var name="filename" val="{blob.nrrd}"/></module>
@@ -340,10 +341,18 @@ TEST(Cli, ARunThatWouldNeedMoreMemoryIsRefusedBeforeAllocating) {
 // ASan's and TSan's shadow memory (and ASan's quarantine) inflate the resident set the budget counts.
 #if !defined(__SANITIZE_ADDRESS__) && !TETFLOW_TEST_TSAN
 
-  // A 150 MB budget: the default 4 mm lattice passes GenerateBackgroundMesh but not CleaveMesh.
+  // A 150 MB budget: the default 4 mm lattice (not refined) passes GenerateBackgroundMesh but not CleaveMesh.
   // (The program is ~64 MB resident before it computes anything, OpenCASCADE's libraries loaded;
   // the budget here was 100 MB before they were linked.)
-  r = run("run " + net + " --output-dir " + tmp.file("b") + " --max-memory 150M");
+  // Refined at thin layers, the lattice itself is refused first, with the thin-layer cell size that fits.
+  r = run("run " + net + " --output-dir " + tmp.file("t") + " --max-memory 120M");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(std::regex_search(r.out, std::regex("m2: the octree refined at thin layers \\([0-9]+ leaves\\) would need "
+                                                  "~[0-9.]+ MB; [0-9.]+ MB available .*; raise thin_layer_cell_size to >= "
+                                                  "[0-9.]+ mm, or set refine_thin_layers to none")))
+      << r.out;
+  // Not refined: the lattice passes GenerateBackgroundMesh, CleaveMesh is refused.
+  r = run("run " + net + " --output-dir " + tmp.file("b") + " --max-memory 150M --set m2.refine_thin_layers=none");
   EXPECT_EQ(r.code, 1) << r.out;
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.out, m, std::regex("m3: CleaveMesh on a background mesh of 1440600 tets would need "
@@ -352,7 +361,7 @@ TEST(Cli, ARunThatWouldNeedMoreMemoryIsRefusedBeforeAllocating) {
                                                      "\\(GenerateBackgroundMesh regular_bcc: cell_size >= ([0-9.]+) mm\\)")))
       << r.out;
   const std::string advised = m[1];
-  r = run("run " + net + " --output-dir " + tmp.file("c") + " --max-memory 150M --set m2.cell_size=" + advised);
+  r = run("run " + net + " --output-dir " + tmp.file("c") + " --max-memory 150M --set m2.refine_thin_layers=none --set m2.cell_size=" + advised);
   // CleaveMesh now runs (the certificate may fail on the coarser lattice: a fidelity matter, not memory).
   EXPECT_TRUE(std::regex_search(r.out, std::regex("m3 +CleaveMesh +done"))) << "cell_size " << advised << ": " << r.out;
 

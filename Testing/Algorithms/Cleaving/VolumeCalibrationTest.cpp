@@ -44,7 +44,11 @@ Outcome run(const std::shared_ptr<const LabelVolume>& vol, double cell, int roun
   const LabelRepairParams rp;
   Outcome o;
   std::unique_ptr<OffsetMaterials> calibrated;
-  CleaveResult r = cleaveCalibrated(bg, mats, CleaveParams{}, rounds, &rp, np, o.calibration, calibrated);
+  // The seed's linear interpolation of the cuts: the case calibration was made for (with exact
+  // interfaces the shell loses 4 %, not 7.5 %; CleaveMesh corrects volumes instead).
+  CleaveParams cp;
+  cp.interface_points = CleaveParams::InterfacePoints::Linear;
+  CleaveResult r = cleaveCalibrated(bg, mats, cp, rounds, &rp, np, o.calibration, calibrated);
   repairLabels(r.mesh, *calibrated, rp, np);
   const QualityResult q = evaluateQuality(r.mesh, QualityParams{}, np);
   EXPECT_TRUE(q.valid);

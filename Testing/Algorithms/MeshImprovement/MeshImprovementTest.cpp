@@ -97,7 +97,9 @@ Case cleaveAndImprove(int kind, unsigned seed, double cell, const ImproveParams&
   NullProgress np;
   const BackgroundMesh bg = generateRegularBcc(vol->grid, BccParams{cell, 0.0}, np);
   Case c;
-  c.before = cleave(bg, mats, CleaveParams{}, np).mesh;
+  CleaveParams cp; // the seed's interface points: the cases the measured figures below are for
+  cp.interface_points = CleaveParams::InterfacePoints::Linear;
+  c.before = cleave(bg, mats, cp, np).mesh;
   c.after = c.before;
   c.stats = improveMesh(c.after, ip, np);
   c.q = evaluateQuality(c.after, QualityParams{}, np);
@@ -172,7 +174,9 @@ TEST(MeshImprovement, SpheresAtEveryLatticeSizeReachTheTargets) {
   for (double cell : {3.0, 2.0, 1.5, 1.0, 0.75, 0.5}) {
     const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{cell, 0.0}, np);
     Case c;
-    c.before = cleave(bg, mats, CleaveParams{}, np).mesh;
+    CleaveParams cp; // the seed's interface points: the cases the measured figures below are for
+  cp.interface_points = CleaveParams::InterfacePoints::Linear;
+  c.before = cleave(bg, mats, cp, np).mesh;
     c.after = c.before;
     c.stats = improveMesh(c.after, ImproveParams{}, np);
     c.q = evaluateQuality(c.after, QualityParams{}, np);

@@ -226,6 +226,30 @@ TEST(TetQuality, MetricsAreInvariantUnderRigidMotionScalingAndCornerOrder) {
   EXPECT_GT(checked, 150);
 }
 
+TEST(TetQuality, CosineRangeAndScoreAgreeWithTheAngles) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int checked = 0;
+  for (int i = 0; i < 2000; ++i) {
+    std::array<Vec3, 4> p;
+    for (auto& x : p) x = {u(rng), u(rng), u(rng)};
+    double lo, hi;
+    const bool ok = dihedralCosineRange(p[0], p[1], p[2], p[3], lo, hi);
+    const TetMetrics m = tetMetrics(p[0], p[1], p[2], p[3]);
+    if (m.volume <= 0 || m.zeroVolume) {
+      EXPECT_FALSE(ok);
+      EXPECT_EQ(dihedralScore(p[0], p[1], p[2], p[3]), -1.0);
+      continue;
+    }
+    ASSERT_TRUE(ok);
+    EXPECT_NEAR(std::acos(hi) * 180.0 / M_PI, m.minDihedral, 1e-6);
+    EXPECT_NEAR(std::acos(lo) * 180.0 / M_PI, m.maxDihedral, 1e-6);
+    EXPECT_NEAR(dihedralScore(p[0], p[1], p[2], p[3]), std::min(m.minDihedral, 180.0 - m.maxDihedral), 1e-6);
+    ++checked;
+  }
+  EXPECT_GT(checked, 500);
+}
+
 TEST(TetQuality, ZeroVolumeTestIsScaleFree) {
   // The same shapes at mm and at km scale classify the same way.
   for (double s : {1e-6, 1.0, 1e6}) {

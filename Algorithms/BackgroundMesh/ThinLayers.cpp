@@ -1,0 +1,217 @@
+#include "ThinLayers.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tetflow {
+
+EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(labels), mode_(mode) {
+  const GridGeometry& g = labels.grid;
+  // Label pairs on face-adjacent voxels (per z slab, then merged).
+  {
+    const auto& d = g.dims;
+    std::vector<std::vector<std::pair<int32_t, int32_t>>> part(static_cast<size_t>(d[2]));
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int64_t k = 0; k < d[2]; ++k) {
+      auto& out = part[size_t(k)];
+      for (int64_t j = 0; j < d[1]; ++j)
+        for (int64_t i = 0; i < d[0]; ++i) {
+          const int32_t a = labels.at(i, j, k);
+          const int32_t nbs[3] = {i + 1 < d[0] ? labels.at(i + 1, j, k) : a, j + 1 < d[1] ? labels.at(i, j + 1, k) : a,
+                                  k + 1 < d[2] ? labels.at(i, j, k + 1) : a};
+          for (int32_t b : nbs)
+            if (b != a) {
+              const std::pair<int32_t, int32_t> pr{std::min(a, b), std::max(a, b)};
+              if (std::find(out.begin(), out.end(), pr) == out.end()) out.push_back(pr);
+            }
+        }
+    }
+    for (const auto& pt : part) contacts_.insert(contacts_.end(), pt.begin(), pt.end());
+    std::sort(contacts_.begin(), contacts_.end());
+    contacts_.erase(std::unique(contacts_.begin(), contacts_.end()), contacts_.end());
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) toIndex_[r][c] = g.direction[c][r] / g.spacing[r];
+  voxelSize_ = std::max({g.spacing[0], g.spacing[1], g.spacing[2]});
+  for (int a = 0; a < 3; ++a) blocks_[size_t(a)] = (g.dims[size_t(a)] + kBlock - 1) / kBlock;
+  const int64_t nb = blocks_[0] * blocks_[1] * blocks_[2];
+  uniform_.assign(size_t(nb), 0);
+  const auto& d = g.dims;
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t b = 0; b < nb; ++b) {
+    const int64_t bi = b % blocks_[0], bj = (b / blocks_[0]) % blocks_[1], bk = b / (blocks_[0] * blocks_[1]);
+    const int64_t i0 = std::max<int64_t>(0, bi * kBlock - 1), i1 = std::min(d[0] - 1, (bi + 1) * kBlock);
+    const int64_t j0 = std::max<int64_t>(0, bj * kBlock - 1), j1 = std::min(d[1] - 1, (bj + 1) * kBlock);
+    const int64_t k0 = std::max<int64_t>(0, bk * kBlock - 1), k1 = std::min(d[2] - 1, (bk + 1) * kBlock);
+    const int32_t first = labels.at(i0, j0, k0);
+    bool same = true;
+    for (int64_t k = k0; k <= k1 && same; ++k)
+      for (int64_t j = j0; j <= j1 && same; ++j) {
+        const int32_t* row = labels.data.data() + labels.index(0, j, k);
+        for (int64_t i = i0; i <= i1; ++i)
+          if (row[i] != first) {
+            same = false;
+            break;
+          }
+      }
+    uniform_[size_t(b)] = same ? 1 : 0;
+  }
+}
+
+Vec3 EdgeTopology::index(const Vec3& p) const { return mul(toIndex_, p - labels_.grid.origin); }
+
+bool EdgeTopology::touch(int32_t a, int32_t b) const {
+  return a == b || std::binary_search(contacts_.begin(), contacts_.end(), std::pair{std::min(a, b), std::max(a, b)});
+}
+
+namespace {
+struct Touch {
+  double t0, t1;
+  int32_t label;
+};
+} // namespace
+
+bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
+  const Vec3 a = index(pa), b = index(pb);
+  const auto& dims = labels_.grid.dims;
+  auto voxelAt = [&](const Vec3& u) {
+    int64_t i[3];
+    for (int x = 0; x < 3; ++x) i[x] = std::clamp<int64_t>(std::llround(u[x]), 0, dims[size_t(x)] - 1);
+    return labels_.at(i[0], i[1], i[2]);
+  };
+  if (mode_ == Mode::Separating) return !touch(voxelAt(a), voxelAt(b));
+  constexpr double eps = kTieWidth;
+  // Voxel range touched (clamped: outside, the boundary voxels continue).
+  int64_t lo[3], hi[3];
+  for (int x = 0; x < 3; ++x) {
+    const double mn = std::min(a[x], b[x]), mx = std::max(a[x], b[x]);
+    lo[x] = std::clamp<int64_t>(int64_t(std::floor(mn + 0.5 - eps)), 0, dims[size_t(x)] - 1);
+    hi[x] = std::clamp<int64_t>(int64_t(std::floor(mx + 0.5 + eps)), 0, dims[size_t(x)] - 1);
+  }
+  // Blocks: all uniform means one label throughout (adjacent uniform blocks share their halos).
+  {
+    bool allUniform = true;
+    for (int64_t bk = lo[2] / kBlock; bk <= hi[2] / kBlock && allUniform; ++bk)
+      for (int64_t bj = lo[1] / kBlock; bj <= hi[1] / kBlock && allUniform; ++bj)
+        for (int64_t bi = lo[0] / kBlock; bi <= hi[0] / kBlock && allUniform; ++bi)
+          allUniform = uniform_[size_t(bi + blocks_[0] * (bj + blocks_[1] * bk))] != 0;
+    if (allUniform) return false;
+  }
+  // The t-interval of [0, 1] where coordinate x lies in voxel i's slab widened by eps.
+  const Vec3 d = b - a;
+  auto slab = [&](int x, int64_t i, double& t0, double& t1) {
+    // Voxels clamped at the grid's ends extend to infinity.
+    const double s0 = i == 0 ? -1e300 : double(i) - 0.5 - eps;
+    const double s1 = i == dims[size_t(x)] - 1 ? 1e300 : double(i) + 0.5 + eps;
+    if (std::abs(d[x]) < 1e-12) {
+      if (a[x] < s0 || a[x] > s1) return false;
+      t0 = 0.0;
+      t1 = 1.0;
+      return true;
+    }
+    double u = (s0 - a[x]) / d[x], v = (s1 - a[x]) / d[x];
+    if (u > v) std::swap(u, v);
+    t0 = std::max(0.0, u);
+    t1 = std::min(1.0, v);
+    return t0 <= t1;
+  };
+  // Along the longest axis, slab by slab; in each, the few voxels of the other two axes.
+  int m = 0;
+  for (int x = 1; x < 3; ++x)
+    if (std::abs(d[x]) > std::abs(d[m])) m = x;
+  const int p = (m + 1) % 3, q = (m + 2) % 3;
+  Touch touches[256];
+  int n = 0;
+  bool overflow = false;
+  for (int64_t i = lo[m]; i <= hi[m] && !overflow; ++i) {
+    double ta, tb;
+    if (!slab(m, i, ta, tb)) continue;
+    // Range of the other axes over [ta, tb].
+    int64_t r[2][2];
+    const int ax[2] = {p, q};
+    for (int w = 0; w < 2; ++w) {
+      const int x = ax[w];
+      const double u = a[x] + ta * d[x], v = a[x] + tb * d[x];
+      r[w][0] = std::clamp<int64_t>(int64_t(std::floor(std::min(u, v) + 0.5 - eps)), 0, dims[size_t(x)] - 1);
+      r[w][1] = std::clamp<int64_t>(int64_t(std::floor(std::max(u, v) + 0.5 + eps)), 0, dims[size_t(x)] - 1);
+    }
+    for (int64_t j = r[0][0]; j <= r[0][1] && !overflow; ++j) {
+      double ja, jb;
+      if (!slab(p, j, ja, jb)) continue;
+      for (int64_t k = r[1][0]; k <= r[1][1]; ++k) {
+        double ka, kb;
+        if (!slab(q, k, ka, kb)) continue;
+        const double t0 = std::max({ta, ja, ka}), t1 = std::min({tb, jb, kb});
+        if (t0 > t1) continue;
+        std::array<int64_t, 3> v;
+        v[size_t(m)] = i;
+        v[size_t(p)] = j;
+        v[size_t(q)] = k;
+        if (n == 256) {
+          overflow = true;
+          break;
+        }
+        touches[n++] = {t0, t1, labels_.at(v[0], v[1], v[2])};
+      }
+    }
+  }
+  if (overflow) return true; // a segment across more than 256 voxels near an interface: split it
+  {
+    int s = 1;
+    while (s < n && touches[s].label == touches[0].label) ++s;
+    if (s == n) return false; // one label
+  }
+  // Per label, the stretches of the segment it covers (touches merged); stretches shorter than
+  // kMinStretch voxels (a corner grazed) do not count, except the end's own: the label of the
+  // voxel holding each end is the one cleaving sees there, however close it is to another.
+  const double minT = kMinStretch / std::max(norm(d), 1e-12);
+  const int32_t endLabel[2] = {voxelAt(a), voxelAt(b)};
+  auto counts = [&](int32_t label, double t0, double t1) {
+    return t1 - t0 >= minT || (t0 <= 0.0 && label == endLabel[0]) || (t1 >= 1.0 && label == endLabel[1]);
+  };
+  std::sort(touches, touches + n, [](const Touch& x, const Touch& y) {
+    return x.label != y.label ? x.label < y.label : x.t0 < y.t0;
+  });
+  int nl = 0; // labels with a stretch
+  for (int s = 0; s < n;) {
+    const int32_t label = touches[s].label;
+    int stretches = 0;
+    double t0 = touches[s].t0, t1 = touches[s].t1;
+    for (; s < n && touches[s].label == label; ++s) {
+      if (touches[s].t0 <= t1 + minT) { // a gap shorter than kMinStretch (a corner grazed) does not count
+        t1 = std::max(t1, touches[s].t1);
+        continue;
+      }
+      if (counts(label, t0, t1)) ++stretches;
+      t0 = touches[s].t0;
+      t1 = touches[s].t1;
+    }
+    if (counts(label, t0, t1)) ++stretches;
+    if (stretches == 0) continue;
+    if (stretches > 1) return true; // it comes back after a stretch of something else
+    if (++nl == 3) return true;     // a third label
+  }
+  return false;
+}
+
+std::vector<uint8_t> tetsMissingMaterials(const TetMesh& mesh, const EdgeTopology& topology, Progress& progress,
+                                          const std::vector<uint8_t>* only) {
+  static constexpr int kEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  const int64_t n = int64_t(mesh.numTets());
+  std::vector<uint8_t> out(size_t(n), 0);
+  LoopCancel cancel(progress);
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t t = 0; t < n; ++t) {
+    if (cancel.skip(t) || (only && !(*only)[size_t(t)])) continue;
+    const auto& q = mesh.tets[size_t(t)];
+    for (const auto& e : kEdge)
+      if (topology.missesMaterial(mesh.points[size_t(q[e[0]])], mesh.points[size_t(q[e[1]])])) {
+        out[size_t(t)] = 1;
+        break;
+      }
+  }
+  cancel.rethrow();
+  return out;
+}
+
+} // namespace tetflow

@@ -1,0 +1,66 @@
+#pragma once
+// Background edges that miss a material (seed §6.2, "topological aliasing"): cleaving gives every
+// background vertex the material that dominates there and puts at most one interface point on an
+// edge, so a layer that an edge crosses without a vertex inside it - a one-voxel CSF between skull
+// and brain on 4 mm cells, a sulcus between two banks of grey matter - is not in the mesh there.
+// The label repair can only patch such a layer afterwards, with whole tets.
+//
+// EdgeTopology answers, for a segment, whether it crosses such a layer, from the voxels the
+// segment passes through (the labels the indicator functions are built from). The segment is
+// widened by kTieWidth voxels, so a segment that runs along a voxel face or through a voxel corner
+// (any lattice whose cells are a whole number of voxels) sees the voxels on both sides. It misses a
+// material when, counting only the stretches of the segment where a label's voxels cover at least
+// kMinStretch voxels of it (a corner grazed does not count),
+//   - it crosses three or more labels, or
+//   - a label comes back after a stretch of another (A, B, A).
+// In Mode::Separating only the first kind counts when the ends carry labels that never touch (below).
+// A background whose every edge passes this test shows every layer the voxels have to the cleaver.
+// The octree (OctreeBcc.h) splits the cells that hold such edges, the seed's "routine subdivision".
+#include <cstdint>
+#include <vector>
+
+#include "Algorithms/Core/Progress.h"
+#include "Algorithms/Core/TetMesh.h"
+#include "Algorithms/Core/Volume.h"
+
+namespace tetflow {
+
+class EdgeTopology {
+public:
+  static constexpr double kTieWidth = 1e-3;   // voxels
+  static constexpr double kMinStretch = 0.25; // voxels: a label over less of the segment does not count
+  // Which misses count:
+  //   Separating  only where the segment's ends carry two labels that never touch in the image
+  //               (a face-adjacent voxel pair): the layer between them - the CSF between skull and
+  //               brain - would be missing and the two would touch. Decided by the ends' voxels.
+  //   All         every miss above (three labels, or A B A): every thin layer and sheet.
+  enum class Mode { Separating, All };
+  // Keeps a reference to `labels`, which must outlive it.
+  explicit EdgeTopology(const LabelVolume& labels, Mode mode = Mode::All);
+  // a, b physical (mm). Outside the grid the boundary voxels continue (as the materials do).
+  bool missesMaterial(const Vec3& a, const Vec3& b) const;
+  // Largest voxel spacing (mm).
+  double voxelSize() const { return voxelSize_; }
+  const GridGeometry& grid() const { return labels_.grid; }
+
+private:
+  static constexpr int kBlock = 4; // voxels per block edge
+  const LabelVolume& labels_;
+  Mode mode_;
+  std::vector<std::pair<int32_t, int32_t>> contacts_; // label pairs (a < b) on face-adjacent voxels, sorted
+  bool touch(int32_t a, int32_t b) const;
+  Mat3 toIndex_;        // physical offset -> continuous index
+  double voxelSize_ = 0;
+  std::array<int64_t, 3> blocks_{0, 0, 0};
+  // Per block: 1 when the block and its one-voxel halo carry one label.
+  std::vector<uint8_t> uniform_;
+  Vec3 index(const Vec3& p) const;
+};
+
+// Per tet of `mesh`: 1 when one of its six edges misses a material. Both cores; the result does
+// not depend on the thread count.
+// Only the tets with only[t] != 0 when `only` is given.
+std::vector<uint8_t> tetsMissingMaterials(const TetMesh& mesh, const EdgeTopology& topology, Progress& progress,
+                                          const std::vector<uint8_t>* only = nullptr);
+
+} // namespace tetflow

@@ -1,0 +1,68 @@
+#include "CleavePipeline.h"
+
+namespace tetflow {
+
+CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet& mats, const CleavePipelineParams& p,
+                                    Progress& progress) {
+  CleavePipelineResult out;
+  CleaveParams cp = p.cleave;
+  cp.strip_exterior.reset(); // stripped after the repair, below
+  CleaveResult& r = out.cleaved;
+  r = p.calibration_rounds > 0 ? cleaveCalibrated(bg, mats, cp, p.calibration_rounds, p.repair ? &p.repairParams : nullptr,
+                                                  progress, out.calibration, out.calibrated)
+                               : cleave(bg, mats, cp, progress);
+  const MaterialSet& used = out.calibrated ? static_cast<const MaterialSet&>(*out.calibrated) : mats;
+  auto refresh = [&] { // the per-material figures after a step
+    const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats.labels());
+    for (size_t i = 0; i < r.materials.size(); ++i) {
+      r.materials[i].tets = now[i].tets;
+      r.materials[i].meshVolume = now[i].volume;
+    }
+  };
+  const LabelVolume argmax = mats.dominantLabels();
+  if (p.repair || p.strip) {
+    progress.beginStage("image topology");
+    out.image = std::make_shared<const LabelImageTopology>(analyzeLabelImage(argmax, progress));
+  }
+  if (p.repair) {
+    out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get());
+    refresh();
+  }
+  const DomainBox box = domainBoxOf(bg.mesh, mats.grid().direction, mats.grid().origin);
+  if (p.strip) {
+    out.strip = stripExterior(r.mesh, argmax, out.image.get(), StripParams{*p.strip, p.stripCavities}, box, progress);
+    r.stats.strippedTets = out.strip.strippedTets;
+    for (auto& m : r.materials)
+      if (m.label == *p.strip) {
+        m.inputVolume = out.strip.cavityVolume; // what was meant to be meshed
+        m.stripped = out.strip.cavityVoxels == 0;
+      }
+    refresh();
+  }
+  if (p.correct) {
+    std::vector<double> targets;
+    for (const auto& m : r.materials) targets.push_back(m.stripped ? 0.0 : m.inputVolume);
+    out.correction = correctVolumes(r.mesh, mats.labels(), targets, box, p.correction, progress);
+    refresh();
+  }
+  return out;
+}
+
+int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, const CleavePipelineResult& r, Progress& progress) {
+  if (!r.image) return 0;
+  LabelRepairParams fp;
+  fp.contacts = fp.points = fp.connect = fp.edges = false;
+  fp.fragments = true;
+  return repairLabels(mesh, materials, fp, progress, r.image.get()).fragments;
+}
+
+void writeCleavePipelineReport(const CleavePipelineResult& r, const CleavePipelineParams& p,
+                               const std::vector<int32_t>& labels, Report& report) {
+  writeCleaveReport(r.cleaved, report);
+  if (p.repair) writeLabelRepairReport(r.repair, report);
+  if (p.strip) writeStripReport(r.strip, p.stripCavities, report);
+  if (p.correct) writeVolumeCorrectionReport(r.correction, report);
+  if (p.calibration_rounds > 0) writeVolumeCalibrationReport(r.calibration, labels, report);
+}
+
+} // namespace tetflow
