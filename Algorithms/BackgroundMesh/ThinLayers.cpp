@@ -1,5 +1,7 @@
 #include "ThinLayers.h"
 
+#include "Algorithms/Quality/LabelTopology.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -7,29 +9,7 @@ namespace tetflow {
 
 EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(labels), mode_(mode) {
   const GridGeometry& g = labels.grid;
-  // Label pairs on face-adjacent voxels (per z slab, then merged).
-  {
-    const auto& d = g.dims;
-    std::vector<std::vector<std::pair<int32_t, int32_t>>> part(static_cast<size_t>(d[2]));
-#pragma omp parallel for schedule(dynamic, 4)
-    for (int64_t k = 0; k < d[2]; ++k) {
-      auto& out = part[size_t(k)];
-      for (int64_t j = 0; j < d[1]; ++j)
-        for (int64_t i = 0; i < d[0]; ++i) {
-          const int32_t a = labels.at(i, j, k);
-          const int32_t nbs[3] = {i + 1 < d[0] ? labels.at(i + 1, j, k) : a, j + 1 < d[1] ? labels.at(i, j + 1, k) : a,
-                                  k + 1 < d[2] ? labels.at(i, j, k + 1) : a};
-          for (int32_t b : nbs)
-            if (b != a) {
-              const std::pair<int32_t, int32_t> pr{std::min(a, b), std::max(a, b)};
-              if (std::find(out.begin(), out.end(), pr) == out.end()) out.push_back(pr);
-            }
-        }
-    }
-    for (const auto& pt : part) contacts_.insert(contacts_.end(), pt.begin(), pt.end());
-    std::sort(contacts_.begin(), contacts_.end());
-    contacts_.erase(std::unique(contacts_.begin(), contacts_.end()), contacts_.end());
-  }
+  contacts_ = labelContactPairs(labels);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) toIndex_[r][c] = g.direction[c][r] / g.spacing[r];
   voxelSize_ = std::max({g.spacing[0], g.spacing[1], g.spacing[2]});

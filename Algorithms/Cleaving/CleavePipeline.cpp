@@ -20,12 +20,31 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
     }
   };
   const LabelVolume argmax = mats.dominantLabels();
-  if (p.repair || p.strip) {
-    progress.beginStage("image topology");
-    out.image = std::make_shared<const LabelImageTopology>(analyzeLabelImage(argmax, progress));
-  }
   if (p.repair) {
-    out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get());
+    // The image's components only when the repair has something to do (labelRepairNeeded).
+    progress.beginStage("repair check");
+    const auto contacts = labelContactPairs(argmax);
+    LabelRepairCheck check = checkLabelRepair(r.mesh, contacts, progress);
+    if (!check.extraPieces) { // only around the vertices the check found (nothing when none)
+      out.repair = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress);
+      // What it relabelled may have cut a label in two: small pieces it cut off go to their
+      // neighbours (every label was in one piece before); anything else, the whole repair below.
+      if (out.repair.relabelledVolume > 0) {
+        progress.beginStage("repair check");
+        check = checkLabelRepair(r.mesh, contacts, progress);
+        if (check.extraPieces && !check.largeExtraPieces && check.badVertices.empty()) {
+          dissolvePieces(r.mesh, check.smallPieces, contacts, out.repair);
+          check = checkLabelRepair(r.mesh, contacts, progress);
+        }
+      }
+    }
+    if (check.extraPieces) {
+      progress.beginStage("image topology");
+      out.image = std::make_shared<const LabelImageTopology>(analyzeLabelImage(argmax, progress));
+      const LabelRepairStats local = out.repair;
+      out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get());
+      out.repair.relabelledVolume += local.relabelledVolume;
+    }
     refresh();
   }
   const DomainBox box = domainBoxOf(bg.mesh, mats.grid().direction, mats.grid().origin);
@@ -49,7 +68,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
 }
 
 int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, const CleavePipelineResult& r, Progress& progress) {
-  if (!r.image) return 0;
+  if (!r.image) return 0; // the repair found nothing to do
   LabelRepairParams fp;
   fp.contacts = fp.points = fp.connect = fp.edges = false;
   fp.fragments = true;

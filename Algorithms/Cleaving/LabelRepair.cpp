@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <queue>
 #include <set>
@@ -16,6 +18,9 @@
 namespace tetflow {
 
 namespace {
+
+// checkLabelRepair lists the tets of extra pieces up to this size (dissolvePieces).
+constexpr int64_t kSmallPieceTets = 16;
 
 // Pieces that are no primary piece of an image component may go when smaller than this share of
 // the component they vote for (or of their label, voting for none), whatever fragment_voxels says:
@@ -399,69 +404,92 @@ void repairEdges(Steps& s) {
     for (const auto& e : kEdgeEnds) ring.push_back({edgeKey(int32_t(t), e), int32_t(t)});
   }
   cancellableSort(ring, progress);
+  std::vector<size_t> starts; // first entry of each edge's run in `ring`
+  for (size_t i = 0; i < ring.size(); ++i)
+    if (i == 0 || ring[i].edge != ring[i - 1].edge) starts.push_back(i);
+  starts.push_back(ring.size());
+  // The complete ring of tets around an edge (unmixed tets were not listed: walk the ring through
+  // the faces that contain the edge), sorted.
+  auto ringOf = [&](size_t i, std::vector<int32_t>& tets) {
+    const uint32_t ea = uint32_t(ring[i].edge >> 32), eb = uint32_t(ring[i].edge);
+    tets.clear();
+    std::vector<int32_t> stack{ring[i].tet};
+    while (!stack.empty()) {
+      const int32_t t = stack.back();
+      stack.pop_back();
+      if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
+      tets.push_back(t);
+      const auto& q = mesh.tets[size_t(t)];
+      for (int f = 0; f < 4; ++f) {
+        const int32_t omitted = q[size_t(f)];
+        if (uint32_t(omitted) == ea || uint32_t(omitted) == eb) continue; // face lacks the edge
+        const int32_t o = nb[size_t(4 * t + f)];
+        if (o >= 0) stack.push_back(o);
+      }
+    }
+    std::sort(tets.begin(), tets.end());
+  };
+  auto linked = [&](int32_t x, int32_t y) {
+    for (int f = 0; f < 4; ++f)
+      if (nb[size_t(4 * x + f)] == y) return true;
+    return false;
+  };
+  // Groups (arcs) of the ring's tets in `inSet`, joined through the faces at the edge.
+  auto groupsOf = [&](const std::vector<int32_t>& tets, auto inSet) {
+    std::vector<std::vector<int32_t>> out;
+    std::vector<char> seen(tets.size(), 0);
+    for (size_t a = 0; a < tets.size(); ++a) {
+      if (seen[a] || !inSet(tets[a])) continue;
+      std::vector<int32_t> g{tets[a]};
+      seen[a] = 1;
+      for (size_t k = 0; k < g.size(); ++k)
+        for (size_t b = 0; b < tets.size(); ++b)
+          if (!seen[b] && inSet(tets[b]) && linked(g[k], tets[b])) {
+            seen[b] = 1;
+            g.push_back(tets[b]);
+          }
+      out.push_back(std::move(g));
+    }
+    return out;
+  };
+  // Does some label touch itself along the edge (two or more arcs)?
+  auto nonManifold = [&](const std::vector<int32_t>& tets) {
+    for (size_t a = 0; a < tets.size(); ++a) {
+      const int32_t L = mesh.materials[size_t(tets[a])];
+      bool first = true;
+      for (size_t b = 0; b < a && first; ++b) first = mesh.materials[size_t(tets[b])] != L;
+      if (first && groupsOf(tets, [&](int32_t t) { return mesh.materials[size_t(t)] == L; }).size() >= 2) return true;
+    }
+    return false;
+  };
   std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
+  const int64_t nRings = int64_t(starts.size()) - 1;
   for (int round = 0; round < 4; ++round) {
     progress.checkCancel();
     int64_t closed = 0;
     std::unordered_set<uint64_t> touched;
-    size_t nextCheck = size_t(1) << 12;
-    for (size_t i = 0; i < ring.size();) {
-      if (i >= nextCheck) {
-        progress.checkCancel();
-        nextCheck = i + (size_t(1) << 12);
-      }
-      size_t j = i;
-      while (j < ring.size() && ring[j].edge == ring[i].edge) ++j;
-      if (round > 0 && !dirty.count(ring[i].edge)) {
-        i = j;
-        continue;
-      }
-      // The ring's tets must all be listed (an interior ring has >= 3 tets, each mixed or not:
-      // unmixed tets were skipped, so take the complete ring from the neighbours instead).
-      const uint32_t ea = uint32_t(ring[i].edge >> 32), eb = uint32_t(ring[i].edge);
+    // Which rings need work: found in parallel on the round's labels, fixed in order below.
+    std::vector<uint8_t> need(size_t(nRings), 0);
+    LoopCancel cancel(progress);
+#pragma omp parallel
+    {
       std::vector<int32_t> tets;
-      {
-        // Walk the ring through the faces that contain the edge.
-        std::vector<int32_t> stack{ring[i].tet};
-        while (!stack.empty()) {
-          const int32_t t = stack.back();
-          stack.pop_back();
-          if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
-          tets.push_back(t);
-          const auto& q = mesh.tets[size_t(t)];
-          for (int f = 0; f < 4; ++f) {
-            const int32_t omitted = q[size_t(f)];
-            if (uint32_t(omitted) == ea || uint32_t(omitted) == eb) continue; // face lacks the edge
-            const int32_t o = nb[size_t(4 * t + f)];
-            if (o >= 0) stack.push_back(o);
-          }
-        }
+#pragma omp for schedule(dynamic, 1024)
+      for (int64_t g = 0; g < nRings; ++g) {
+        if (cancel.skip(g)) continue;
+        const size_t i = starts[size_t(g)];
+        if (round > 0 && !dirty.count(ring[i].edge)) continue;
+        ringOf(i, tets);
+        need[size_t(g)] = nonManifold(tets) ? 1 : 0;
       }
-      i = j;
-      std::sort(tets.begin(), tets.end());
-      auto linked = [&](int32_t x, int32_t y) {
-        for (int f = 0; f < 4; ++f)
-          if (nb[size_t(4 * x + f)] == y) return true;
-        return false;
-      };
-      // Groups (arcs) of one label, and of "not that label", around the edge.
-      auto groups = [&](auto inSet) {
-        std::vector<std::vector<int32_t>> out;
-        std::vector<char> seen(tets.size(), 0);
-        for (size_t a = 0; a < tets.size(); ++a) {
-          if (seen[a] || !inSet(tets[a])) continue;
-          std::vector<int32_t> g{tets[a]};
-          seen[a] = 1;
-          for (size_t k = 0; k < g.size(); ++k)
-            for (size_t b = 0; b < tets.size(); ++b)
-              if (!seen[b] && inSet(tets[b]) && linked(g[k], tets[b])) {
-                seen[b] = 1;
-                g.push_back(tets[b]);
-              }
-          out.push_back(std::move(g));
-        }
-        return out;
-      };
+    }
+    cancel.rethrow();
+    std::vector<int32_t> tets;
+    for (int64_t g = 0; g < nRings; ++g) {
+      if (!need[size_t(g)]) continue;
+      if ((g & 1023) == 0) progress.checkCancel();
+      ringOf(starts[size_t(g)], tets);
+      auto groups = [&](auto inSet) { return groupsOf(tets, inSet); };
       std::set<int32_t> labelsHere;
       for (int32_t t : tets) labelsHere.insert(mesh.materials[size_t(t)]);
       for (int32_t L : labelsHere) {
@@ -595,6 +623,247 @@ void repairFragments(Steps& s) {
 
 } // namespace
 
+LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
+                                  Progress& progress) {
+  LabelRepairCheck check;
+  const int64_t nt = int64_t(mesh.numTets());
+  const int64_t np = int64_t(mesh.numPoints());
+  if (nt == 0) return check;
+  auto touch = [&](int32_t a, int32_t b) {
+    return a == b || std::binary_search(contacts.begin(), contacts.end(), std::pair{std::min(a, b), std::max(a, b)});
+  };
+  // Vertices where labels meet: the first label seen at each vertex, then a second one.
+  // (One plain pass: faster than atomics from two threads on the same vertices.)
+  constexpr int32_t kUnset = std::numeric_limits<int32_t>::min();
+  std::vector<int32_t> first(size_t(np), kUnset);
+  std::vector<uint8_t> mixed(size_t(np), 0);
+  for (int64_t t = 0; t < nt; ++t) {
+    progress.checkCancelEvery(t);
+    const int32_t L = mesh.materials[size_t(t)];
+    for (int32_t v : mesh.tets[size_t(t)]) {
+      int32_t& f = first[size_t(v)];
+      if (f == kUnset) f = L;
+      else if (f != L) mixed[size_t(v)] = 1;
+    }
+  }
+  // Stars of the mixed vertices only.
+  std::vector<int64_t> slot(size_t(np), -1);
+  int64_t nm = 0;
+  for (int64_t v = 0; v < np; ++v)
+    if (mixed[size_t(v)]) slot[size_t(v)] = nm++;
+  std::vector<int64_t> offset(size_t(nm) + 1, 0);
+  for (const auto& q : mesh.tets)
+    for (int32_t v : q)
+      if (slot[size_t(v)] >= 0) ++offset[size_t(slot[size_t(v)]) + 1];
+  for (int64_t m = 0; m < nm; ++m) offset[size_t(m) + 1] += offset[size_t(m)];
+  std::vector<int32_t> star(size_t(offset[size_t(nm)]));
+  {
+    std::vector<int64_t> fill(offset.begin(), offset.end() - 1);
+    for (int64_t t = 0; t < nt; ++t)
+      for (int32_t v : mesh.tets[size_t(t)])
+        if (slot[size_t(v)] >= 0) star[size_t(fill[size_t(slot[size_t(v)])]++)] = int32_t(t);
+  }
+  progress.checkCancel();
+  std::vector<int32_t> mixedList;
+  mixedList.reserve(size_t(nm));
+  for (int64_t v = 0; v < np; ++v)
+    if (mixed[size_t(v)]) mixedList.push_back(int32_t(v));
+  // At each mixed vertex: forbidden pairs, and each label's tets in one face-joined group.
+  std::vector<uint8_t> badFlag(size_t(nm), 0);
+  std::vector<int32_t> group(star.size()); // per star entry: its face-joined group at the vertex
+#pragma omp parallel
+  {
+    std::vector<int32_t> parent;
+#pragma omp for schedule(dynamic, 256)
+    for (int64_t m = 0; m < nm; ++m) {
+      const int32_t* s0 = star.data() + offset[size_t(m)];
+      const int64_t k = offset[size_t(m) + 1] - offset[size_t(m)];
+      bool bad = false;
+      for (int64_t a = 0; a < k && !bad; ++a)
+        for (int64_t b = a + 1; b < k && !bad; ++b)
+          bad = !touch(mesh.materials[size_t(s0[a])], mesh.materials[size_t(s0[b])]);
+      {
+        parent.resize(size_t(k));
+        for (int64_t a = 0; a < k; ++a) parent[size_t(a)] = int32_t(a);
+        auto find = [&](int32_t x) {
+          while (parent[size_t(x)] != x) x = parent[size_t(x)] = parent[size_t(parent[size_t(x)])];
+          return x;
+        };
+        for (int64_t a = 0; a < k; ++a)
+          for (int64_t b = a + 1; b < k; ++b) {
+            if (mesh.materials[size_t(s0[a])] != mesh.materials[size_t(s0[b])]) continue;
+            int shared = 0; // tets of one star share a face when they share 3 vertices
+            for (int32_t x : mesh.tets[size_t(s0[a])])
+              for (int32_t y : mesh.tets[size_t(s0[b])]) shared += x == y;
+            if (shared == 3) parent[size_t(find(int32_t(a)))] = find(int32_t(b));
+          }
+        // Two groups of one label sharing an edge (through v): the label touches itself along it,
+        // which the edges step closes. Groups that share only v (a pinch at a point) are left:
+        // no step changes them, and the certificate only counts them.
+        for (int64_t a = 0; a < k && !bad; ++a)
+          for (int64_t b = a + 1; b < k && !bad; ++b) {
+            if (mesh.materials[size_t(s0[a])] != mesh.materials[size_t(s0[b])] || find(int32_t(a)) == find(int32_t(b)))
+              continue;
+            int shared = 0;
+            for (int32_t x : mesh.tets[size_t(s0[a])])
+              for (int32_t y : mesh.tets[size_t(s0[b])]) shared += x == y;
+            bad = shared >= 2;
+          }
+        for (int64_t a = 0; a < k; ++a) group[size_t(offset[size_t(m)] + a)] = find(int32_t(a));
+      }
+      if (bad) badFlag[size_t(m)] = 1;
+    }
+  }
+  progress.checkCancel();
+  for (int64_t m = 0; m < nm; ++m)
+    if (badFlag[size_t(m)]) check.badVertices.push_back(mixedList[size_t(m)]);
+  // Pieces per label, joined through vertices (with one group per label at every vertex, the same
+  // as through faces).
+  DisjointSets sets(static_cast<size_t>(nt));
+  std::vector<int32_t> rep(size_t(np), -1);
+  for (int64_t t = 0; t < nt; ++t) {
+    progress.checkCancelEvery(t);
+    for (int32_t v : mesh.tets[size_t(t)]) {
+      if (mixed[size_t(v)]) continue;
+      int32_t& r = rep[size_t(v)];
+      if (r < 0) r = int32_t(t);
+      else sets.unite(r, int32_t(t));
+    }
+  }
+  for (int64_t m = 0; m < nm; ++m) { // mixed vertices: the tets of one face-joined group
+    const int64_t o = offset[size_t(m)], k = offset[size_t(m) + 1] - o;
+    for (int64_t a = 0; a < k; ++a)
+      if (group[size_t(o + a)] != a) sets.unite(star[size_t(o + a)], star[size_t(o + group[size_t(o + a)])]);
+  }
+  // Pieces per label: the largest stays; the others are extra (their tets listed when small).
+  std::unordered_map<int32_t, int64_t> size; // root -> tets
+  for (int64_t t = 0; t < nt; ++t) ++size[sets.find(int32_t(t))];
+  std::map<int32_t, std::pair<int64_t, int32_t>> largest; // label -> (tets, root)
+  for (int64_t t = 0; t < nt; ++t) {
+    const int32_t r = sets.find(int32_t(t));
+    auto& l = largest[mesh.materials[size_t(t)]];
+    if (size[r] > l.first || (size[r] == l.first && r < l.second)) l = {size[r], r};
+  }
+  std::map<int32_t, std::vector<int32_t>> extra; // root -> tets
+  for (int64_t t = 0; t < nt; ++t) {
+    const int32_t r = sets.find(int32_t(t));
+    if (largest[mesh.materials[size_t(t)]].second == r) continue;
+    check.extraPieces = true;
+    if (size[r] <= kSmallPieceTets) extra[r].push_back(int32_t(t));
+    else check.largeExtraPieces = true;
+  }
+  for (auto& [r, tets] : extra) check.smallPieces.push_back(std::move(tets));
+  return check;
+}
+
+bool labelRepairNeeded(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
+                       Progress& progress) {
+  return checkLabelRepair(mesh, contacts, progress).needed();
+}
+
+namespace {
+// Face neighbours (as tetFaceNeighbours) of the tets around `vertices` only; every other entry is
+// kNoNeighbour. Found through the vertex stars: the tet across a face is in the stars of all three
+// of its vertices.
+std::vector<int32_t> neighboursAround(const TetMesh& mesh, const VertexStars& stars, const std::vector<int32_t>& vertices,
+                                      std::vector<int32_t>& focusTets) {
+  std::vector<int32_t> nb(4 * mesh.numTets(), kNoNeighbour);
+  for (int32_t v : vertices)
+    for (int64_t i = stars.offset[size_t(v)]; i < stars.offset[size_t(v) + 1]; ++i) focusTets.push_back(stars.tets[size_t(i)]);
+  std::sort(focusTets.begin(), focusTets.end());
+  focusTets.erase(std::unique(focusTets.begin(), focusTets.end()), focusTets.end());
+  for (int32_t t : focusTets) {
+    const auto& q = mesh.tets[size_t(t)];
+    for (int f = 0; f < 4; ++f) {
+      const int32_t a = q[kTetFaceVertices[f][0]], b = q[kTetFaceVertices[f][1]], c = q[kTetFaceVertices[f][2]];
+      for (int64_t i = stars.offset[size_t(a)]; i < stars.offset[size_t(a) + 1]; ++i) {
+        const int32_t o = stars.tets[size_t(i)];
+        if (o == t) continue;
+        const auto& r = mesh.tets[size_t(o)];
+        const bool hasB = r[0] == b || r[1] == b || r[2] == b || r[3] == b;
+        const bool hasC = r[0] == c || r[1] == c || r[2] == c || r[3] == c;
+        if (hasB && hasC) {
+          nb[4 * size_t(t) + size_t(f)] = o;
+          break;
+        }
+      }
+    }
+  }
+  return nb;
+}
+} // namespace
+
+int64_t dissolvePieces(TetMesh& mesh, const std::vector<std::vector<int32_t>>& pieces,
+                       const std::vector<std::pair<int32_t, int32_t>>& contacts, LabelRepairStats& st) {
+  Allowed allowed;
+  for (const auto& [a, b] : contacts) allowed.pairs.insert(labelPairKey(a, b));
+  const VertexStars stars = vertexStars(mesh);
+  std::vector<int32_t> vertices, focus;
+  for (const auto& p : pieces)
+    for (int32_t t : p)
+      for (int32_t v : mesh.tets[size_t(t)]) vertices.push_back(v);
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  const std::vector<int32_t> nb = neighboursAround(mesh, stars, vertices, focus);
+  int64_t done = 0;
+  for (const auto& p : pieces) {
+    std::map<int32_t, double> border; // neighbouring label -> shared area
+    for (int32_t t : p)
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[4 * size_t(t) + size_t(f)];
+        if (o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)]) border[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f);
+      }
+    int32_t best = 0;
+    double bestArea = -1.0;
+    for (const auto& [L, area] : border) {
+      bool ok = true;
+      for (const auto& [M, unused] : border) ok = ok && allowed.ok(L, M);
+      if (ok && area > bestArea) {
+        bestArea = area;
+        best = L;
+      }
+    }
+    if (bestArea <= 0) continue;
+    for (int32_t t : p) {
+      mesh.materials[size_t(t)] = best;
+      st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+      ++st.fragmentTets;
+    }
+    ++st.fragments;
+    ++done;
+  }
+  return done;
+}
+
+LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
+                                    const LabelRepairCheck& check, const std::vector<std::pair<int32_t, int32_t>>& contacts,
+                                    Progress& progress) {
+  LabelRepairStats st;
+  if (!check.needed()) {
+    st.skipped = true;
+    return st;
+  }
+  progress.beginStage("repair contacts");
+  st.local = true;
+  const LabelVolume labels = materials.dominantLabels();
+  const LabelImageTopology none; // connections and fragments do not run here
+  Allowed allowed;
+  for (const auto& [a, b] : contacts) allowed.pairs.insert(labelPairKey(a, b));
+  const VertexStars stars = vertexStars(mesh);
+  std::vector<int32_t> focus;
+  const std::vector<int32_t> nb = neighboursAround(mesh, stars, check.badVertices, focus);
+  countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
+  LabelRepairParams p = params;
+  p.connect = p.fragments = false;
+  Steps s{mesh, materials, p, progress, st, labels, none, allowed, nb, int64_t(mesh.numTets()), IndexFrame{labels.grid}};
+  if (p.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
+  if (p.points) repairPointContacts(s);
+  if (p.edges) repairEdges(s);
+  countForbidden(mesh, nb, allowed, st.forbiddenFacesAfter, st.forbiddenAreaAfter);
+  progress.endStage();
+  return st;
+}
+
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
                               Progress& progress, const LabelImageTopology* image) {
   if (!(params.fragment_voxels >= 0.0) || !std::isfinite(params.fragment_voxels))
@@ -605,8 +874,14 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
                                !params.points)) return st;
   const int64_t n = static_cast<int64_t>(mesh.numTets());
 
-  progress.beginStage(params.contacts || params.points ? "repair contacts" : "repair fragments");
   const LabelVolume labels = materials.dominantLabels();
+  if (!image) {
+    progress.beginStage("repair check");
+    const auto contacts = labelContactPairs(labels);
+    const LabelRepairCheck check = checkLabelRepair(mesh, contacts, progress);
+    if (!check.needed() || !check.extraPieces) return repairLabelsAround(mesh, materials, params, check, contacts, progress);
+  }
+  progress.beginStage(params.contacts || params.points ? "repair contacts" : "repair fragments");
   LabelImageTopology own;
   if (!image) own = analyzeLabelImage(labels, progress);
   const LabelImageTopology& img = image ? *image : own;
@@ -628,6 +903,7 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
 }
 
 void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
+  report.set("repair_skipped", ReportValue(s.skipped));
   report.set("repair_forbidden_faces_before", s.forbiddenFacesBefore);
   report.set("repair_forbidden_area_before_mm2", s.forbiddenAreaBefore);
   report.set("repair_forbidden_faces_after", s.forbiddenFacesAfter);

@@ -42,6 +42,8 @@
 // Deterministic: the same result for any thread count. Stages: "repair contacts",
 // "repair connections", "repair edges", "repair fragments".
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "Algorithms/Core/Progress.h"
 #include "Algorithms/Core/Report.h"
@@ -78,7 +80,41 @@ struct LabelRepairStats {
   int64_t edgeTets = 0;
   double relabelledVolume = 0.0;  // mm^3, all steps together
   int fragmentRounds = 0, connectRounds = 0;
+  bool skipped = false; // labelRepairNeeded found nothing to repair (nothing else was run)
+  bool local = false;   // only around the check's vertices (repairLabelsAround)
 };
+
+// Whether any repair step could change a label (a cheap, sufficient test: when it says no, none
+// would): no two labels that never touch in the image (`contacts`, labelContactPairs) share a
+// vertex; no label touches itself along an edge (two groups of its tets at a vertex, joined through
+// faces, that share an edge); and every label's tets form one piece (joined through faces, found
+// through the groups at each vertex): a piece that could be joined or dissolved needs a second one. One pass over the tets plus the stars of the vertices where labels meet: no
+// face adjacency, no image components. LabelRepairStats::skipped is set when repairLabels finds so.
+bool labelRepairNeeded(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
+                       Progress& progress);
+// The same test, saying where: the vertices where labels that never touch meet or a label is
+// pinched (the contacts, point contacts and edges steps work there), and whether some label is in
+// more than one piece (then connections and fragments, which need the image's components, run).
+struct LabelRepairCheck {
+  std::vector<int32_t> badVertices;
+  bool extraPieces = false;      // a label in more than one piece (joined through vertices)
+  bool largeExtraPieces = false; // one of them (not the label's largest) has more than 16 tets
+  std::vector<std::vector<int32_t>> smallPieces; // the tets of the others
+  bool needed() const { return extraPieces || !badVertices.empty(); }
+};
+LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
+                                  Progress& progress);
+// The repair when the check found no extra piece: the contacts, point contacts and edges steps on
+// the tets around the check's vertices only (no image components, no face adjacency of the whole
+// mesh). Nothing at all when the check found nothing.
+// Relabels each piece (tets) to the neighbouring label it shares the most face area with, among
+// those allowed next to all its neighbours (`contacts`); returns the pieces relabelled. For pieces
+// the repair itself cut off (CleavePipeline: a label that was in one piece before the local steps).
+int64_t dissolvePieces(TetMesh& mesh, const std::vector<std::vector<int32_t>>& pieces,
+                       const std::vector<std::pair<int32_t, int32_t>>& contacts, LabelRepairStats& stats);
+LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
+                                    const LabelRepairCheck& check, const std::vector<std::pair<int32_t, int32_t>>& contacts,
+                                    Progress& progress);
 
 // Throws InputError for a negative fragment_voxels or a mesh failing validateStructure. `image`, when
 // given, is analyzeLabelImage(materials.dominantLabels()) computed before (it is the costly part of

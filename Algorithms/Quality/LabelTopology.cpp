@@ -1,5 +1,7 @@
 #include "LabelTopology.h"
 
+#include <unordered_map>
+
 #include <algorithm>
 #include <atomic>
 #include <memory>
@@ -25,6 +27,10 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
     throw InputError("label volume of " + std::to_string(n) + " voxels is too large for the certificate (limit 2^31)");
   const auto& lab = v.data;
   auto idx = [&](int64_t i, int64_t j, int64_t k) { return i + nx * (j + ny * k); };
+  // Work goes in fixed slabs of z planes (not one per thread), so every sum below is made in the
+  // same order whatever the thread count.
+  constexpr int64_t kSlab = 8;
+  const int64_t slabs = (nz + kSlab - 1) / kSlab;
 
   // 26-connected components of equal labels; cores and their 26-connected components.
   DisjointSets all(static_cast<size_t>(n)), cores(static_cast<size_t>(n));
@@ -43,77 +49,173 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
             same(i, j, k - 1) && same(i, j, k + 1);
       }
   progress.checkCancel();
-  for (int64_t k = 0; k < nz; ++k) {
+  // Unions with the 13 neighbours before each voxel in scan order: within each slab in parallel
+  // (a set's root is its smallest index, so the sets of one slab stay in it), then across the
+  // first plane of every slab, in order.
+  auto unitePlane = [&](int64_t k, int64_t kMin) {
     for (int64_t j = 0; j < ny; ++j)
       for (int64_t i = 0; i < nx; ++i) {
         const int64_t p = idx(i, j, k);
         const int32_t L = lab[static_cast<size_t>(p)];
-        // The 13 neighbours before p in scan order.
-        for (int dk = -1; dk <= 0; ++dk)
+        for (int dk = -1; dk <= 0; ++dk) {
+          if (k + dk < kMin) continue;
           for (int dj = -1; dj <= 1; ++dj)
             for (int di = -1; di <= 1; ++di) {
               if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;
               const int64_t a = i + di, b = j + dj, c = k + dk;
-              if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny) continue;
+              if (a < 0 || b < 0 || a >= nx || b >= ny) continue;
               const int64_t q = idx(a, b, c);
               if (lab[static_cast<size_t>(q)] != L) continue;
               all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
               if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
                 cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
             }
+        }
       }
-    if (k % 16 == 0) progress.checkCancel();
+  };
+  LoopCancel cancel(progress);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t sl = 0; sl < slabs; ++sl) {
+    if (cancel.skip()) continue;
+    for (int64_t k = sl * kSlab; k < std::min(nz, (sl + 1) * kSlab); ++k) unitePlane(k, sl * kSlab);
   }
-
-  LabelImageTopology s;
-  s.comp.assign(static_cast<size_t>(n), -1);
-  std::vector<int32_t> rootComp(static_cast<size_t>(n), -1);
-  std::vector<uint8_t> coreCounted(static_cast<size_t>(n), 0);
-  for (int64_t k = 0; k < nz; ++k)
+  cancel.rethrow();
+  for (int64_t sl = 1; sl < slabs; ++sl) { // the dk = -1 neighbours of each slab's first plane
+    const int64_t k = sl * kSlab;
     for (int64_t j = 0; j < ny; ++j)
       for (int64_t i = 0; i < nx; ++i) {
         const int64_t p = idx(i, j, k);
-        const int32_t r = all.find(static_cast<int32_t>(p));
-        int32_t& c = rootComp[static_cast<size_t>(r)];
-        if (c < 0) {
-          c = static_cast<int32_t>(s.comps.size());
-          s.comps.push_back({});
-          s.comps.back().label = lab[static_cast<size_t>(p)];
-        }
-        s.comp[static_cast<size_t>(p)] = c;
-        ImageComponent& ic = s.comps[static_cast<size_t>(c)];
-        ++ic.voxels;
-        if (i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1) ic.touchesBox = true;
-        ic.where.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
-        if (isCore[static_cast<size_t>(p)]) {
-          const int32_t cr = cores.find(static_cast<int32_t>(p));
-          if (!coreCounted[static_cast<size_t>(cr)]) {
-            coreCounted[static_cast<size_t>(cr)] = 1;
-            ++ic.cores;
+        const int32_t L = lab[static_cast<size_t>(p)];
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const int64_t a = i + di, b = j + dj;
+            if (a < 0 || b < 0 || a >= nx || b >= ny) continue;
+            const int64_t q = idx(a, b, k - 1);
+            if (lab[static_cast<size_t>(q)] != L) continue;
+            all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
+            if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
+              cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
           }
-        }
       }
+  }
+  progress.checkCancel();
+  // Roots (read only: no path compression while threads share the arrays).
+  auto rootOf = [](const DisjointSets& d, int32_t x) {
+    while (d.parent[static_cast<size_t>(x)] != x) x = d.parent[static_cast<size_t>(x)];
+    return x;
+  };
+  std::vector<int32_t> root(static_cast<size_t>(n)), coreRoot(static_cast<size_t>(n), -1);
+#pragma omp parallel for schedule(static)
+  for (int64_t p = 0; p < n; ++p) {
+    root[size_t(p)] = rootOf(all, int32_t(p));
+    if (isCore[size_t(p)]) coreRoot[size_t(p)] = rootOf(cores, int32_t(p));
+  }
   progress.checkCancel();
 
-  // Contacts across voxel faces.
+  LabelImageTopology s;
+  s.comp.assign(static_cast<size_t>(n), -1);
+  {
+    std::vector<int32_t> rootComp(static_cast<size_t>(n), -1);
+    std::vector<uint8_t> coreCounted(static_cast<size_t>(n), 0);
+    for (int64_t p = 0; p < n; ++p) { // component numbers in scan order
+      int32_t& c = rootComp[size_t(root[size_t(p)])];
+      if (c < 0) {
+        c = static_cast<int32_t>(s.comps.size());
+        s.comps.push_back({});
+        s.comps.back().label = lab[static_cast<size_t>(p)];
+      }
+      s.comp[size_t(p)] = c;
+      ImageComponent& ic = s.comps[static_cast<size_t>(c)];
+      ++ic.voxels;
+      const int32_t cr = coreRoot[size_t(p)];
+      if (cr >= 0 && !coreCounted[size_t(cr)]) {
+        coreCounted[size_t(cr)] = 1;
+        ++ic.cores;
+      }
+    }
+  }
+  progress.checkCancel();
+  // Places and box contact of the components, per slab, merged in slab order.
+  {
+    std::vector<std::vector<std::pair<int32_t, PlaceAcc>>> part(static_cast<size_t>(slabs));
+    std::vector<std::vector<int32_t>> touching(static_cast<size_t>(slabs));
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t sl = 0; sl < slabs; ++sl) {
+      std::unordered_map<int32_t, size_t> at;
+      auto& out = part[size_t(sl)];
+      for (int64_t k = sl * kSlab; k < std::min(nz, (sl + 1) * kSlab); ++k)
+        for (int64_t j = 0; j < ny; ++j)
+          for (int64_t i = 0; i < nx; ++i) {
+            const int32_t c = s.comp[size_t(idx(i, j, k))];
+            auto [it, fresh] = at.try_emplace(c, out.size());
+            if (fresh) out.push_back({c, PlaceAcc{}});
+            out[it->second].second.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
+            if (i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1) touching[size_t(sl)].push_back(c);
+          }
+    }
+    for (int64_t sl = 0; sl < slabs; ++sl) {
+      for (const auto& [c, acc] : part[size_t(sl)]) s.comps[size_t(c)].where.merge(acc);
+      for (int32_t c : touching[size_t(sl)]) s.comps[size_t(c)].touchesBox = true;
+    }
+  }
+  progress.checkCancel();
+
+  // Contacts across voxel faces, per slab, merged in slab order.
   const double faceArea[3] = {g.spacing[1] * g.spacing[2], g.spacing[0] * g.spacing[2],
                               g.spacing[0] * g.spacing[1]};
-  for (int64_t k = 0; k < nz; ++k)
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
-        const int64_t nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
-        for (int a = 0; a < 3; ++a) {
-          if (nb[a][0] >= nx || nb[a][1] >= ny || nb[a][2] >= nz) continue;
-          const int32_t M = lab[static_cast<size_t>(idx(nb[a][0], nb[a][1], nb[a][2]))];
-          if (M == L) continue;
-          auto& e = s.contacts[labelPairKey(L, M)];
-          e.first += faceArea[a];
-          const double h[3] = {a == 0 ? 0.5 : 0.0, a == 1 ? 0.5 : 0.0, a == 2 ? 0.5 : 0.0};
-          e.second.add(g.indexToPhysical(double(i) + h[0], double(j) + h[1], double(k) + h[2]), faceArea[a]);
+  std::vector<std::map<uint64_t, std::pair<double, PlaceAcc>>> cpart(static_cast<size_t>(slabs));
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t sl = 0; sl < slabs; ++sl)
+    for (int64_t k = sl * kSlab; k < std::min(nz, (sl + 1) * kSlab); ++k)
+      for (int64_t j = 0; j < ny; ++j)
+        for (int64_t i = 0; i < nx; ++i) {
+          const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
+          const int64_t nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
+          for (int a = 0; a < 3; ++a) {
+            if (nb[a][0] >= nx || nb[a][1] >= ny || nb[a][2] >= nz) continue;
+            const int32_t M = lab[static_cast<size_t>(idx(nb[a][0], nb[a][1], nb[a][2]))];
+            if (M == L) continue;
+            auto& e = cpart[size_t(sl)][labelPairKey(L, M)];
+            e.first += faceArea[a];
+            const double h[3] = {a == 0 ? 0.5 : 0.0, a == 1 ? 0.5 : 0.0, a == 2 ? 0.5 : 0.0};
+            e.second.add(g.indexToPhysical(double(i) + h[0], double(j) + h[1], double(k) + h[2]), faceArea[a]);
+          }
         }
-      }
+  for (const auto& m : cpart)
+    for (const auto& [key, e] : m) {
+      auto& d = s.contacts[key];
+      d.first += e.first;
+      d.second.merge(e.second);
+    }
   return s;
+}
+
+std::vector<std::pair<int32_t, int32_t>> labelContactPairs(const LabelVolume& v) {
+  const auto& d = v.grid.dims;
+  std::vector<std::vector<std::pair<int32_t, int32_t>>> part(static_cast<size_t>(d[2]));
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int64_t k = 0; k < d[2]; ++k) {
+    auto& out = part[size_t(k)];
+    for (int64_t j = 0; j < d[1]; ++j) {
+      const int32_t* row = v.data.data() + v.index(0, j, k);
+      const int32_t* up = j + 1 < d[1] ? v.data.data() + v.index(0, j + 1, k) : nullptr;
+      const int32_t* above = k + 1 < d[2] ? v.data.data() + v.index(0, j, k + 1) : nullptr;
+      for (int64_t i = 0; i < d[0]; ++i) {
+        const int32_t a = row[i];
+        const int32_t nbs[3] = {i + 1 < d[0] ? row[i + 1] : a, up ? up[i] : a, above ? above[i] : a};
+        for (int32_t b : nbs)
+          if (b != a) {
+            const std::pair<int32_t, int32_t> pr{std::min(a, b), std::max(a, b)};
+            if (std::find(out.begin(), out.end(), pr) == out.end()) out.push_back(pr);
+          }
+      }
+    }
+  }
+  std::vector<std::pair<int32_t, int32_t>> pairs;
+  for (const auto& pt : part) pairs.insert(pairs.end(), pt.begin(), pt.end());
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
 }
 
 namespace {

@@ -121,6 +121,10 @@ struct LabelImageTopology {
 
 LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress);
 
+// Just the label pairs (a < b) that touch across a voxel face, sorted: one parallel pass, no
+// components (what the label repair's quick check and the thin-layer test need).
+std::vector<std::pair<int32_t, int32_t>> labelContactPairs(const LabelVolume& v);
+
 // Continuous voxel-index coordinates of a physical point.
 struct IndexFrame {
   GridGeometry g;
