@@ -81,9 +81,11 @@ Choice choose(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed
 
 // Per root of `sets`: 1 when the piece is a primary piece of an image component: the one with the
 // most voting volume (ties to the smaller root), or with `keepCores`, the max(1, cores) pieces
-// with the most (a component may be in as many pieces as it has cores).
+// with the most (a component may be in as many pieces as it has cores). `pairs`, when given,
+// receives the (image component << 32 | root) of every primary piece.
 std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, const std::vector<int32_t>& vote,
-                                   const LabelImageTopology* keepCores = nullptr) {
+                                   const LabelImageTopology* keepCores = nullptr,
+                                   std::unordered_set<uint64_t>* pairs = nullptr) {
   std::unordered_map<uint64_t, double> votes; // (image comp, root) -> volume
   for (size_t t = 0; t < mesh.numTets(); ++t)
     if (vote[t] >= 0)
@@ -99,7 +101,10 @@ std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, cons
     std::vector<size_t> order(j - i);
     for (size_t k = 0; k < order.size(); ++k) order[k] = i + k;
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return sorted[a].second > sorted[b].second; });
-    for (size_t k = 0; k < std::min(keep, order.size()); ++k) primary[size_t(uint32_t(sorted[order[k]].first))] = 1;
+    for (size_t k = 0; k < std::min(keep, order.size()); ++k) {
+      primary[size_t(uint32_t(sorted[order[k]].first))] = 1;
+      if (pairs) pairs->insert(sorted[order[k]].first);
+    }
     i = j;
   }
   return primary;
@@ -543,6 +548,7 @@ void repairFragments(Steps& s) {
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
   std::map<int32_t, double> labelVolume; // voxels of each label [mm^3]
   for (const auto& c : img.comps) labelVolume[c.label] += double(c.voxels) * voxel;
+  std::vector<uint8_t> strayDone(size_t(n), 0); // a stray moves once
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
     DisjointSets sets = sameLabelPieces(mesh, nb);
@@ -553,7 +559,8 @@ void repairFragments(Steps& s) {
       progress.checkCancelEvery(t);
       volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
     }
-    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote, &img);
+    std::unordered_set<uint64_t> primaryOf; // (comp, root) pairs
+    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote, &img, &primaryOf);
     progress.checkCancel();
     // The image component each piece votes for most (-1: none), and its size limit: fragment_voxels,
     // or kFragmentShare of that component (of its label's voxels when it votes for none).
@@ -570,25 +577,49 @@ void repairFragments(Steps& s) {
       auto it = mainComp.find(r);
       if (it == mainComp.end() || v > it->second.second) mainComp[r] = {c, v};
     }
+    // A component without a core may be lost (the certificate's lost_small) but not split: any
+    // piece that is not its primary one may go, whatever its size.
     auto limitOf = [&](int32_t r, int32_t label) {
       const auto it = mainComp.find(r);
-      const double of = it != mainComp.end() ? double(img.comps[size_t(it->second.first)].voxels) * voxel : labelVolume[label];
-      return std::max(limit, kFragmentShare * of);
+      if (it == mainComp.end()) return std::max(limit, kFragmentShare * labelVolume[label]);
+      const auto& comp = img.comps[size_t(it->second.first)];
+      if (comp.cores == 0) return std::numeric_limits<double>::infinity();
+      return std::max(limit, kFragmentShare * double(comp.voxels) * voxel);
     };
-    // Candidates: small, not primary. Their outer faces by neighbour label.
-    std::map<int32_t, std::map<int32_t, double>> border; // root -> label -> shared area
+    // Candidates: small, not primary. Their outer faces by neighbour label. Strays too: the tets of
+    // a piece that stays which vote for a component it is not primary of, while it votes for that
+    // component with less than the component's size limit (a piece of one component reaching into
+    // a voxel of another, nearby one: the certificate would count it as a second piece of that
+    // one). Each stray is a candidate of its own (key: -1 - tet) when it is on the piece's surface.
+    std::map<int32_t, std::map<int32_t, double>> border; // root (or -1 - stray tet) -> label -> shared area
     std::vector<int64_t> candidateTets;
-    for (int64_t t = 0; t < n; ++t) {
-      progress.checkCancelEvery(t);
-      const int32_t r = sets.find(int32_t(t));
-      if (primary[size_t(r)] || volume[size_t(r)] >= limitOf(r, mesh.materials[size_t(t)])) continue;
-      candidateTets.push_back(t);
-      auto& b = border[r];
+    auto compLimit = [&](int32_t c) {
+      return std::max(limit, kFragmentShare * double(img.comps[size_t(c)].voxels) * voxel);
+    };
+    auto addBorder = [&](int64_t t, std::map<int32_t, double>& b) {
       for (int f = 0; f < 4; ++f) {
         const int32_t o = nb[size_t(4 * t + f)];
         if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
         b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f);
       }
+    };
+    for (int64_t t = 0; t < n; ++t) {
+      progress.checkCancelEvery(t);
+      const int32_t r = sets.find(int32_t(t));
+      if (primary[size_t(r)] || volume[size_t(r)] >= limitOf(r, mesh.materials[size_t(t)])) {
+        const int32_t c = vote[size_t(t)];
+        if (c < 0 || strayDone[size_t(t)] || primaryOf.count((uint64_t(uint32_t(c)) << 32) | uint32_t(r))) continue;
+        const auto pv = pieceVotes.find((uint64_t(uint32_t(r)) << 32) | uint32_t(c));
+        if (pv == pieceVotes.end() || pv->second >= compLimit(c)) continue;
+        std::map<int32_t, double> b;
+        addBorder(t, b);
+        if (b.empty()) continue;
+        candidateTets.push_back(t);
+        border[int32_t(-1 - t)] = std::move(b);
+        continue;
+      }
+      candidateTets.push_back(t);
+      addBorder(t, border[r]);
     }
     std::map<int32_t, int32_t> target; // root -> new label
     int64_t kept = 0;
@@ -604,18 +635,24 @@ void repairFragments(Steps& s) {
         }
       }
       if (bestArea > 0.0) target[r] = best;
-      else ++kept;
+      else if (r >= 0) ++kept;
     }
     st.keptSmallPieces = kept;
     if (target.empty()) break;
     ++st.fragmentRounds;
-    st.fragments += static_cast<int64_t>(target.size());
+    for (const auto& [r, unused] : target) st.fragments += r >= 0 ? 1 : 0;
     for (int64_t t : candidateTets) {
-      auto it = target.find(sets.find(int32_t(t)));
+      auto it = target.find(int32_t(-1 - t));
+      if (it == target.end()) it = target.find(sets.find(int32_t(t)));
       if (it == target.end()) continue;
       mesh.materials[size_t(t)] = it->second;
       st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-      ++st.fragmentTets;
+      if (it->first < 0) {
+        ++st.strayTets;
+        strayDone[size_t(t)] = 1;
+      } else {
+        ++st.fragmentTets;
+      }
       vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
     }
   }
@@ -912,6 +949,7 @@ void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
   report.set("repair_unresolved_tets", s.unresolvedTets);
   report.set("repair_fragments", s.fragments);
   report.set("repair_fragment_tets", s.fragmentTets);
+  report.set("repair_stray_tets", s.strayTets);
   report.set("repair_kept_small_pieces", s.keptSmallPieces);
   report.set("repair_point_contacts", s.pointContacts);
   report.set("repair_point_tets", s.pointTets);

@@ -33,9 +33,13 @@
 //    at their centroid (the certificate's rule). The max(1, cores) pieces with the most voting
 //    volume are the primary pieces of their image component. A piece that is primary for no
 //    component and smaller than fragment_voxels voxel volumes, or than 1 % of the component it
-//    votes for most (of its label's voxels when it votes for none), is relabelled to the
+//    votes for most (of its label's voxels when it votes for none), or of any size when that
+//    component has no core (the certificate allows losing it, not splitting it), is relabelled to the
 //    neighbouring label it shares the most face area with, among those allowed next to all its
-//    neighbours (kept when there is none). Rounds repeat until nothing changes (at most 8). On
+//    neighbours (kept when there is none). So is a stray: a tet on the surface of a piece that
+//    stays, voting for an image component that piece is not primary of and reaches into with
+//    less than that component's size limit (once per tet). Rounds repeat until nothing changes
+//    (at most 8). On
 //    cells coarser than the voxels this removes the bits of a thin structure (a white-matter
 //    finger in a gyrus) that cleaving cut off from it: the component stays in one piece, and the
 //    volume correction gives the volume back.
@@ -71,6 +75,7 @@ struct LabelRepairStats {
   int64_t unresolvedTets = 0;     // tets with a forbidden face and no allowed label
   int64_t fragments = 0;          // pieces relabelled
   int64_t fragmentTets = 0;
+  int64_t strayTets = 0;          // tets of a piece that stays, reaching into another component
   int64_t keptSmallPieces = 0;    // non-primary pieces below the size left (no allowed label)
   int64_t pointContacts = 0;      // vertices where forbidden labels met, resolved
   int64_t pointTets = 0;

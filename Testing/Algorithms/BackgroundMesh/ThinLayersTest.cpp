@@ -10,6 +10,7 @@
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Quality/LabelTopology.h"
 #include "Algorithms/Quality/MeshQuality.h"
+#include "Fixtures/LabelShapes.h"
 #include "Fixtures/MeshChecks.h"
 
 using namespace tetflow;
@@ -28,20 +29,7 @@ LabelVolume sheet(int n, int at) {
 }
 
 // A one-voxel shell (label 1, radius r0 <= r < r0 + 1 voxel centres) around a ball (label 2).
-LabelVolume shell(int n, double r0) {
-  LabelVolume v;
-  GridGeometry g;
-  g.dims = {n, n, n};
-  v.allocate(g, 0);
-  const double c = (n - 1) / 2.0;
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const double r = std::sqrt((i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c));
-        v.at(i, j, k) = r < r0 ? 2 : (r < r0 + 1 ? 1 : 0);
-      }
-  return v;
-}
+LabelVolume shell(int n, double r0) { return test::nestedBalls(n, r0, r0 + 1); }
 
 } // namespace
 
@@ -81,18 +69,7 @@ TEST(ThinLayers, SegmentsAcrossASheetMissItAndOthersDoNot) {
 }
 
 // Faces between labels 0 and 2 of a cleaved mesh: where the shell between them went missing.
-double contactArea(const TetMesh& m) {
-  NullProgress np;
-  const auto nb = tetFaceNeighbours(m, np);
-  double a = 0;
-  for (size_t t = 0; t < m.numTets(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      const int32_t o = nb[4 * t + size_t(f)];
-      if (o > int32_t(t) && ((m.materials[t] == 0 && m.materials[size_t(o)] == 2) || (m.materials[t] == 2 && m.materials[size_t(o)] == 0)))
-        a += tetFaceArea(m, t, f);
-    }
-  return a;
-}
+double contactArea(const TetMesh& m) { return test::contactArea(m, 0, 2); }
 
 TEST(ThinLayers, RefinedLatticeSeesTheShellAndKeepsItsCellsElsewhere) {
   const LabelVolume v = shell(40, 12.0);

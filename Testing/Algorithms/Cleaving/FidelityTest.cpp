@@ -21,22 +21,14 @@
 #include "Algorithms/Quality/Certificate.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Algorithms/SizingField/SizingField.h"
+#include "Fixtures/LabelShapes.h"
 #include "Fixtures/RandomLabels.h"
 
 namespace tetflow {
 namespace {
 
-// An n^3 volume of 1 mm voxels labelled by f(x, y, z), coordinates from the volume's centre.
 LabelVolume makeVolume(int n, const std::function<int32_t(double, double, double)>& f) {
-  LabelVolume v;
-  GridGeometry g;
-  g.dims = {n, n, n};
-  v.allocate(g, 0);
-  const double c = (n - 1) / 2.0;
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) v.at(i, j, k) = f(i - c, j - c, k - c);
-  return v;
+  return test::labelVolumeOf(n, f);
 }
 
 struct Meshed {
@@ -99,12 +91,7 @@ double cleaveAndCertify(const LabelVolume& v, double cell) {
 }
 
 // Spherical shells around a core of radius 9 voxels: voxel centres with 9 <= r < 9 + t.
-LabelVolume shell(double t) {
-  return makeVolume(32, [t](double x, double y, double z) {
-    const double r = std::sqrt(x * x + y * y + z * z);
-    return r < 9 ? 2 : (r < 9 + t ? 1 : 0);
-  });
-}
+LabelVolume shell(double t) { return test::nestedBalls(32, 9, 9 + t); }
 
 TEST(Fidelity, ShellsOneToThreeVoxelsThickStayOneShell) {
   // Measured worst volume errors at 1-voxel cells: 0.08 %, 0.06 %, 0.02 %, 0.02 %; at 2-voxel

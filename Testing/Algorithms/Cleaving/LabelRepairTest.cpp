@@ -133,6 +133,47 @@ TEST(LabelRepair, AStrayIslandGoesBackAndAGenuineVoxelStays) {
   EXPECT_EQ(exact.materials, test::voxelMesh(v).materials);
 }
 
+// A component without a core (a rod one voxel thick) may be lost but not split: when cleaving
+// broke it into two pieces that no step joins, the one that is not primary goes, however large,
+// and the certificate finds no split. A piece of a component with a core stays (found on the
+// layered head at 2 mm: a 7-voxel CSF rod in two pieces of more than a voxel each).
+TEST(LabelRepair, ACorelessComponentIsNotLeftInPieces) {
+  LabelVolume v;
+  GridGeometry g;
+  g.dims = {12, 7, 7};
+  v.allocate(g, 1);
+  for (int64_t i = 2; i < 10; ++i) v.at(i, 3, 3) = 3; // the rod: 8 voxels, no core
+  for (int64_t i = 2; i < 10; ++i)                      // a 3x3 bar with a core
+    for (int64_t j = 0; j < 3; ++j)
+      for (int64_t k = 4; k < 7; ++k) v.at(i, j, k) = 4;
+  TetMesh m = test::voxelMesh(v);
+  for (int64_t i : {5, 6}) {
+    test::relabelVoxel(v, m, i, 3, 3, 1); // the rod in two pieces of 3 voxels
+    for (int64_t j = 0; j < 3; ++j)
+      for (int64_t k = 4; k < 7; ++k) test::relabelVoxel(v, m, i, j, k, 1); // the bar in two of 9
+  }
+  const auto vol = std::make_shared<const LabelVolume>(v);
+  const LabelMaterials mats(vol, 0.5);
+  NullProgress np;
+  LabelRepairParams p;
+  p.connect = false; // the fragments step alone
+  p.edges = false;
+  const LabelRepairStats st = repairLabels(m, mats, p, np);
+  EXPECT_EQ(st.fragments, 1);
+  EXPECT_EQ(st.fragmentTets, 18);
+  const CertificateResult c = certifyMesh(m, *vol, np);
+  for (const auto& lc : c.labels) {
+    if (lc.label == 3) {
+      EXPECT_EQ(lc.meshComponents, 1);
+      EXPECT_EQ(lc.split, 0);
+    }
+    if (lc.label == 4) {
+      EXPECT_EQ(lc.meshComponents, 2); // a piece of 9 voxels of a 24-voxel component stays
+      EXPECT_EQ(lc.split, 1);
+    }
+  }
+}
+
 TEST(LabelRepair, AForbiddenFaceIsRelabelledToTheLayerBetween) {
   // Slabs 1 | 3 | 2 along x (3 one voxel thick): 1 and 2 never touch.
   LabelVolume v;

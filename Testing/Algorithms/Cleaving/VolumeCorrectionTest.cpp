@@ -11,6 +11,7 @@
 #include "Algorithms/Cleaving/VolumeCorrection.h"
 #include "Algorithms/Quality/Certificate.h"
 #include "Algorithms/Quality/MeshQuality.h"
+#include "Fixtures/LabelShapes.h"
 #include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
@@ -19,20 +20,7 @@ using namespace tetflow;
 namespace {
 
 // n^3 voxels of 1 mm: 0 outside radius r1, 1 between r0 and r1, 2 inside r0 (voxel centres).
-LabelVolume nested(int n, double r0, double r1) {
-  LabelVolume v;
-  GridGeometry g;
-  g.dims = {n, n, n};
-  v.allocate(g, 0);
-  const double c = (n - 1) / 2.0;
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const double r = std::sqrt((i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c));
-        v.at(i, j, k) = r < r0 ? 2 : (r < r1 ? 1 : 0);
-      }
-  return v;
-}
+LabelVolume nested(int n, double r0, double r1) { return test::nestedBalls(n, r0, r1); }
 
 struct Cleaved {
   BackgroundMesh bg;
