@@ -32,6 +32,7 @@ void Cleaver::phaseVertices() {
   std::vector<uint8_t> visited(static_cast<size_t>(nv), 0);
   std::vector<int32_t> edgeStamp(edgeV_.size(), -1), faceStamp(faceV_.size(), -1);
   std::vector<Ref> viol;
+  std::vector<std::pair<int32_t, int32_t>> pulled;
   std::vector<MaterialSample> s;
   int64_t done = 0;
   for (int32_t v = 0; v < nv; ++v) {
@@ -48,6 +49,11 @@ void Cleaver::phaseVertices() {
     visited[v] = 1;
     if (viol.empty()) continue;
     Vec3 c{0, 0, 0};
+    // The material pairs of the violating cuts (seed §4.7: a cut of the same type as one that
+    // caused the warp is pulled into the snap).
+    pulled.clear();
+    for (const Ref& r : viol)
+      if (r.kind == kCut) pulled.push_back(cutPair(r.index));
     for (const Ref& r : viol) c = c + positionOf(r);
     c = (1.0 / double(viol.size())) * c;
     for (const Ref& r : viol) setAlias(r, Ref{kVertex, v});
@@ -61,6 +67,16 @@ void Cleaver::phaseVertices() {
     // Project the remaining interface points around v onto the surfaces at the new position;
     // one that now violates v, or an already visited vertex, snaps to it.
     forFreePointsAround(v, stampB, edgeStamp, faceStamp, [&](Ref r) {
+      // With linear points the projection does this by itself (v's values now make the cut
+      // fall at v); exact points follow the functions, which need not cross at the centre of
+      // mass of several cuts, and an interface of the warp's own type left on an edge next to v
+      // pinches a material at v.
+      if (exact_ && r.kind == kCut && (edgeV_[r.index][0] == v || edgeV_[r.index][1] == v) &&
+          std::find(pulled.begin(), pulled.end(), cutPair(r.index)) != pulled.end()) {
+        setAlias(r, Ref{kVertex, v});
+        ++stats_.snaps;
+        return;
+      }
       recompute(r);
       int32_t vs[4];
       const int n = simplexOf(r, vs);

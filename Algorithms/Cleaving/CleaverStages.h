@@ -350,6 +350,11 @@ private:
     else if (r.kind == kQuad) computeQuad(r.index);
   }
 
+  // The materials a cut separates (its ends' labels), smaller first.
+  std::pair<int32_t, int32_t> cutPair(int32_t e) const {
+    const int32_t a = label_[edgeV_[e][0]], b = label_[edgeV_[e][1]];
+    return {std::min(a, b), std::max(a, b)};
+  }
   // ---- interface point computation (linear interpolation of sampled values) ----
   void computeCut(int32_t e) {
     const auto& v = edgeV_[e];

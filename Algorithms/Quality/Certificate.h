@@ -42,7 +42,8 @@
 //
 // Stripped exteriors: when the components of a label that reach the volume's boundary (a voxel on
 // the box) get tets of the label voting for at most 1 % of their voxel volume, while the label has
-// tets elsewhere, that label's exterior was stripped (CleaveMesh's strip_exterior keeps cavities):
+// tets elsewhere and at most half of those components' voxel centres lie in the mesh (a box
+// component lost under other labels' tets was not stripped), that label's exterior was stripped (CleaveMesh's strip_exterior keeps cavities):
 // those components are left out of the volume (the label's voxels are its other components), the
 // component rule, the contacts (voxel pairs with a stripped voxel do not count) and the voxel
 // agreement, and are reported as stripped (voxels, mm^3). What was kept is compared with exactly

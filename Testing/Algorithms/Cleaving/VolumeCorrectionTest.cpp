@@ -4,15 +4,18 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/Cleaving/Cleaver.h"
 #include "Algorithms/Cleaving/Stripping.h"
 #include "Algorithms/Cleaving/VolumeCorrection.h"
 #include "Algorithms/Quality/Certificate.h"
+#include "Algorithms/Quality/LabelTopology.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Fixtures/LabelShapes.h"
 #include "Fixtures/MeshChecks.h"
+#include "Fixtures/RandomLabels.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -154,4 +157,39 @@ TEST(Stripping, TheExteriorGoesTheCavitiesStayAndTheCertificateComparesWhatWasKe
   const CertificateResult cert2 = certifyMesh(all.r.mesh, v, np);
   EXPECT_EQ(cert2.excludedLabels, std::vector<int32_t>{0});
   EXPECT_TRUE(cert2.strippedLabels.empty());
+}
+
+// Stripping on its own finds the label's components from its runs (no analysis of the whole
+// image): on random label volumes with cavities, tubes and box contacts, it strips exactly what it
+// strips with the full analysis (analyzeLabelImage, which the label repair passes it), and counts
+// the same exterior and cavity voxels.
+TEST(Stripping, TheLabelsOwnComponentsGiveWhatTheWholeImageAnalysisGives) {
+  std::mt19937 rng(7);
+  NullProgress np;
+  int withCavities = 0;
+  for (int c = 0; c < 8; ++c) {
+    SCOPED_TRACE("case " + std::to_string(c));
+    LabelVolume v = test::voronoiWithSheets(rng, 12 + int(rng() % 8));
+    const int32_t L = int32_t(rng() % 3);
+    // Blobs of L inside, some of them cavities.
+    for (int b = 0; b < 3; ++b) {
+      const int64_t ci = 2 + int64_t(rng() % uint32_t(v.grid.dims[0] - 4)), cj = 2 + int64_t(rng() % uint32_t(v.grid.dims[1] - 4)),
+                    ck = 2 + int64_t(rng() % uint32_t(v.grid.dims[2] - 4));
+      for (int64_t k = ck - 1; k <= ck + 1; ++k)
+        for (int64_t j = cj - 1; j <= cj + 1; ++j)
+          for (int64_t i = ci - 1; i <= ci + 1; ++i) v.at(i, j, k) = L;
+    }
+    const LabelImageTopology full = analyzeLabelImage(v, np);
+    for (const auto& comp : full.comps) withCavities += comp.label == L && !comp.touchesBox ? 1 : 0;
+    Cleaved a = cleaveIt(v, 1.5), b = cleaveIt(v, 1.5);
+    const StripStats sa = stripExterior(a.r.mesh, v, nullptr, StripParams{L, false}, a.box, np);
+    const StripStats sb = stripExterior(b.r.mesh, v, &full, StripParams{L, false}, b.box, np);
+    EXPECT_EQ(sa.exteriorVoxels, sb.exteriorVoxels);
+    EXPECT_EQ(sa.cavityVoxels, sb.cavityVoxels);
+    EXPECT_EQ(sa.cavityComponents, sb.cavityComponents);
+    EXPECT_EQ(sa.strippedTets, sb.strippedTets);
+    EXPECT_EQ(a.r.mesh.tets, b.r.mesh.tets);
+    EXPECT_EQ(a.r.mesh.materials, b.r.mesh.materials);
+  }
+  EXPECT_GT(withCavities, 3); // the cases do have cavities
 }

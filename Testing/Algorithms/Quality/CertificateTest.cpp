@@ -4,6 +4,7 @@
 // blobs bridged, a label removed from the outside) must be flagged with the right counts, places
 // and per-tet flags; contacts, non-manifold edges, thresholds and bad input.
 #include "Algorithms/Quality/Certificate.h"
+#include "Algorithms/Quality/LabelTopology.h"
 
 #include <gtest/gtest.h>
 
@@ -201,6 +202,42 @@ TEST(Certificate, ContactsAreFaceContactsWithTheirArea) {
   int touching = 0;
   for (size_t t = 0; t < m.numTets(); ++t) touching += (r.flags[t] & 16) ? 1 : 0;
   EXPECT_GT(touching, 0);
+}
+
+// A component at the box that the mesh lost under another label's tets was not stripped: it is
+// lost (and its contacts still count), where a stripped exterior leaves its voxels outside the mesh.
+TEST(Certificate, ABoxComponentLostUnderOtherTetsIsLostNotStripped) {
+  LabelVolume v = makeVolume(12, 10, 9, 1.5);
+  std::fill(v.data.begin(), v.data.end(), 1);
+  for (int k = 0; k <= 2; ++k) // label 5 at the box corner (one core voxel, the box does not erode)...
+    for (int j = 0; j <= 2; ++j)
+      for (int i = 0; i <= 2; ++i) v.at(i, j, k) = 5;
+  for (int k = 4; k <= 6; ++k) // ... and inside
+    for (int j = 4; j <= 6; ++j)
+      for (int i = 5; i <= 7; ++i) v.at(i, j, k) = 5;
+  TetMesh m = voxelMesh(v);
+  for (int k = 0; k <= 2; ++k)
+    for (int j = 0; j <= 2; ++j)
+      for (int i = 0; i <= 2; ++i) relabelVoxel(v, m, i, j, k, 1);
+  CertificateResult r = certify(m, v);
+  EXPECT_TRUE(r.strippedLabels.empty());
+  EXPECT_EQ(r.lost, 1);
+  EXPECT_EQ(labelOf(r, 5).voxels, 54);
+  // Removing those tets instead strips the exterior of 5: left out, not lost.
+  TetMesh cut;
+  cut.points = m.points;
+  for (size_t t = 0; t < m.numTets(); ++t) {
+    const Vec3 c = tetCentroid(m, t);
+    bool corner = true; // in the corner's voxels (index < 2.5)
+    for (int a = 0; a < 3; ++a) corner = corner && (c[a] - v.grid.origin[a]) / 1.5 < 2.5;
+    if (corner) continue;
+    cut.tets.push_back(m.tets[t]);
+    cut.materials.push_back(m.materials[t]);
+  }
+  r = certify(cut, v);
+  EXPECT_EQ(r.strippedLabels, std::vector<int32_t>{5});
+  EXPECT_EQ(r.lost, 0);
+  EXPECT_EQ(labelOf(r, 5).voxels, 27);
 }
 
 TEST(Certificate, ARelabelledRobustComponentIsLostWithItsSizeAndPlace) {
