@@ -5,6 +5,7 @@
 
 #include "Dataflow/Executor.h"
 #include "Modules/StandardModules.h"
+#include "Fixtures/PhantomNet.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -16,19 +17,11 @@ struct Pipeline {
   Executor exec;
   Pipeline(const std::string& kind, double cell) {
     registerStandardModules(reg);
-    net.addModule("CreatePhantom", "p");
+    test::addPhantomPipeline(net);
     net.setParameterText("p", "kind", kind);
     net.setParameterText("p", "radius", "8");
     net.setParameterText("p", "voxel_size", "1");
-    net.addModule("GenerateBackgroundMesh", "bg");
     net.setParameterText("bg", "cell_size", std::to_string(cell));
-    net.addModule("CleaveMesh", "cl");
-    net.addModule("EvaluateQuality", "q");
-    net.connect("p", 0, "bg", 0);
-    net.connect("p", 0, "cl", 0);
-    net.connect("bg", 0, "cl", 1);
-    net.connect("cl", 0, "q", 0);
-    net.connect("p", 0, "q", 1);
   }
   const Report& report(const std::string& id) { return exec.state(id)->report; }
 };

@@ -13,6 +13,7 @@
 #include "Dataflow/Executor.h"
 #include "Dataflow/NetworkFile.h"
 #include "Modules/StandardModules.h"
+#include "Fixtures/PhantomNet.h"
 
 using namespace tetflow;
 
@@ -117,15 +118,7 @@ TEST(Nets, ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes) {
   ModuleRegistry reg;
   registerStandardModules(reg);
   Network net(reg);
-  net.addModule("CreatePhantom", "p");
-  net.addModule("GenerateBackgroundMesh", "bg");
-  net.addModule("CleaveMesh", "cl");
-  net.addModule("EvaluateQuality", "q");
-  net.connect("p", 0, "bg", 0);
-  net.connect("p", 0, "cl", 0);
-  net.connect("bg", 0, "cl", 1);
-  net.connect("cl", 0, "q", 0);
-  net.connect("p", 0, "q", 1);
+  test::addPhantomPipeline(net);
   for (const char* threshold : {"require_components", "forbid_spurious_contacts"}) net.setParameterText("q", threshold, "true");
   net.setParameterText("q", "max_volume_error", "1.5");
   net.setParameterText("q", "require_min_dihedral", "10");
