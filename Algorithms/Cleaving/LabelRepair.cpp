@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <queue>
 #include <set>
 #include <unordered_map>
@@ -32,6 +33,31 @@ struct Allowed {
   std::unordered_set<uint64_t> pairs;
   bool ok(int32_t a, int32_t b) const { return a == b || pairs.count(labelPairKey(a, b)) > 0; }
 };
+
+// Adds tet t's faces towards tets of other labels to `border` (neighbour label -> area).
+void addBorder(const TetMesh& mesh, const std::vector<int32_t>& nb, int64_t t, std::map<int32_t, double>& border) {
+  for (int f = 0; f < 4; ++f) {
+    const int32_t o = nb[size_t(4 * t + f)];
+    if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
+    border[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f);
+  }
+}
+
+// The label a piece with this border takes when it goes: the neighbouring label it shares the
+// most area with, among those allowed next to all its neighbours; none when there is none.
+std::optional<int32_t> dissolveInto(const std::map<int32_t, double>& border, const Allowed& allowed) {
+  std::optional<int32_t> best;
+  double bestArea = 0.0;
+  for (const auto& [L, area] : border) {
+    bool ok = true;
+    for (const auto& [M, unused] : border) ok = ok && allowed.ok(L, M);
+    if (ok && area > bestArea) {
+      bestArea = area;
+      best = L;
+    }
+  }
+  return best;
+}
 
 // Value of every material (by label) at p.
 std::map<int32_t, float> valuesAt(const MaterialSet& mats, const Vec3& p) {
@@ -579,12 +605,14 @@ void repairFragments(Steps& s) {
     }
     // A component without a core may be lost (the certificate's lost_small) but not split: any
     // piece that is not its primary one may go, whatever its size.
+    auto compLimit = [&](int32_t c) {
+      return std::max(limit, kFragmentShare * double(img.comps[size_t(c)].voxels) * voxel);
+    };
     auto limitOf = [&](int32_t r, int32_t label) {
       const auto it = mainComp.find(r);
       if (it == mainComp.end()) return std::max(limit, kFragmentShare * labelVolume[label]);
-      const auto& comp = img.comps[size_t(it->second.first)];
-      if (comp.cores == 0) return std::numeric_limits<double>::infinity();
-      return std::max(limit, kFragmentShare * double(comp.voxels) * voxel);
+      if (img.comps[size_t(it->second.first)].cores == 0) return std::numeric_limits<double>::infinity();
+      return compLimit(it->second.first);
     };
     // Candidates: small, not primary. Their outer faces by neighbour label. Strays too: the tets of
     // a piece that stays which vote for a component it is not primary of, while it votes for that
@@ -593,16 +621,6 @@ void repairFragments(Steps& s) {
     // one). Each stray is a candidate of its own (key: -1 - tet) when it is on the piece's surface.
     std::map<int32_t, std::map<int32_t, double>> border; // root (or -1 - stray tet) -> label -> shared area
     std::vector<int64_t> candidateTets;
-    auto compLimit = [&](int32_t c) {
-      return std::max(limit, kFragmentShare * double(img.comps[size_t(c)].voxels) * voxel);
-    };
-    auto addBorder = [&](int64_t t, std::map<int32_t, double>& b) {
-      for (int f = 0; f < 4; ++f) {
-        const int32_t o = nb[size_t(4 * t + f)];
-        if (o < 0 || mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) continue;
-        b[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f);
-      }
-    };
     for (int64_t t = 0; t < n; ++t) {
       progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
@@ -612,29 +630,19 @@ void repairFragments(Steps& s) {
         const auto pv = pieceVotes.find((uint64_t(uint32_t(r)) << 32) | uint32_t(c));
         if (pv == pieceVotes.end() || pv->second >= compLimit(c)) continue;
         std::map<int32_t, double> b;
-        addBorder(t, b);
+        addBorder(mesh, nb, t, b);
         if (b.empty()) continue;
         candidateTets.push_back(t);
         border[int32_t(-1 - t)] = std::move(b);
         continue;
       }
       candidateTets.push_back(t);
-      addBorder(t, border[r]);
+      addBorder(mesh, nb, t, border[r]);
     }
     std::map<int32_t, int32_t> target; // root -> new label
     int64_t kept = 0;
     for (const auto& [r, b] : border) {
-      int32_t best = 0;
-      double bestArea = -1.0;
-      for (const auto& [L, area] : b) {
-        bool ok = true;
-        for (const auto& [M, unused] : b) ok = ok && allowed.ok(L, M);
-        if (ok && area > bestArea) {
-          bestArea = area;
-          best = L;
-        }
-      }
-      if (bestArea > 0.0) target[r] = best;
+      if (const auto into = dissolveInto(b, allowed)) target[r] = *into;
       else if (r >= 0) ++kept;
     }
     st.keptSmallPieces = kept;
@@ -845,24 +853,11 @@ int64_t dissolvePieces(TetMesh& mesh, const std::vector<std::vector<int32_t>>& p
   int64_t done = 0;
   for (const auto& p : pieces) {
     std::map<int32_t, double> border; // neighbouring label -> shared area
-    for (int32_t t : p)
-      for (int f = 0; f < 4; ++f) {
-        const int32_t o = nb[4 * size_t(t) + size_t(f)];
-        if (o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)]) border[mesh.materials[size_t(o)]] += tetFaceArea(mesh, size_t(t), f);
-      }
-    int32_t best = 0;
-    double bestArea = -1.0;
-    for (const auto& [L, area] : border) {
-      bool ok = true;
-      for (const auto& [M, unused] : border) ok = ok && allowed.ok(L, M);
-      if (ok && area > bestArea) {
-        bestArea = area;
-        best = L;
-      }
-    }
-    if (bestArea <= 0) continue;
+    for (int32_t t : p) addBorder(mesh, nb, t, border);
+    const auto into = dissolveInto(border, allowed);
+    if (!into) continue;
     for (int32_t t : p) {
-      mesh.materials[size_t(t)] = best;
+      mesh.materials[size_t(t)] = *into;
       st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
       ++st.fragmentTets;
     }

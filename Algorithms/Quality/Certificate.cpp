@@ -176,29 +176,30 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       if (img.comps[c].touchesBox) boxVotes[img.comps[c].label].first += votedVolume[c];
     std::map<int32_t, bool> labelHasTets;
     for (int64_t t = 0; t < nTets; ++t) labelHasTets[mesh.materials[size_t(t)]] = true;
-    // Voxel centres of the box components inside the mesh: a stripped exterior lies (mostly)
-    // outside it; a box component that the mesh lost (other labels' tets over its voxels) was not
-    // stripped.
-    std::vector<int64_t> inside(img.comps.size(), 0);
-    for (int64_t v = 0; v < nVox; ++v) {
-      const int32_t c = img.comp[size_t(v)];
-      if (c >= 0 && img.comps[size_t(c)].touchesBox && owner[size_t(v)] != std::numeric_limits<int32_t>::max())
-        ++inside[size_t(c)];
-    }
-    std::map<int32_t, std::pair<int64_t, int64_t>> boxInside; // label -> (inside, voxels)
-    for (size_t c = 0; c < img.comps.size(); ++c)
-      if (img.comps[c].touchesBox) {
-        boxInside[img.comps[c].label].first += inside[c];
-        boxInside[img.comps[c].label].second += img.comps[c].voxels;
-      }
+    // Candidates: the box components of labels with tets whose box components got (almost) no
+    // votes.
     for (size_t c = 0; c < img.comps.size(); ++c) {
       const auto& ic = img.comps[c];
       if (!ic.touchesBox || !labelHasTets[ic.label]) continue; // a label with no tets: see "excluded"
       const auto& bv = boxVotes[ic.label];
-      const auto& bi = boxInside[ic.label];
-      if (bv.first <= kExcludedCoverage * bv.second && 2 * bi.first <= bi.second) {
-        strippedComp[c] = 1;
-        strippedVoxels[ic.label] += ic.voxels;
+      if (bv.first <= kExcludedCoverage * bv.second) strippedComp[c] = 1;
+    }
+    // A stripped exterior lies (mostly) outside the mesh; a box component that the mesh lost (other
+    // labels' tets over its voxels) was not stripped. Voxel centres in a tet, per candidate label.
+    if (std::find(strippedComp.begin(), strippedComp.end(), 1) != strippedComp.end()) {
+      std::map<int32_t, std::pair<int64_t, int64_t>> boxInside; // label -> (inside, voxels)
+      for (int64_t v = 0; v < nVox; ++v) {
+        const int32_t c = img.comp[size_t(v)];
+        if (c < 0 || !strippedComp[size_t(c)]) continue;
+        auto& bi = boxInside[img.comps[size_t(c)].label];
+        ++bi.second;
+        if (owner[size_t(v)] != std::numeric_limits<int32_t>::max()) ++bi.first;
+      }
+      for (size_t c = 0; c < img.comps.size(); ++c) {
+        if (!strippedComp[c]) continue;
+        const auto& bi = boxInside[img.comps[c].label];
+        if (2 * bi.first > bi.second) strippedComp[c] = 0;
+        else strippedVoxels[img.comps[c].label] += img.comps[c].voxels;
       }
     }
   }

@@ -104,13 +104,8 @@ TEST(ThinLayers, RefinedLatticeSeesTheShellAndKeepsItsCellsElsewhere) {
 
 TEST(ThinLayers, NothingThinIsTheRegularLatticeItself) {
   // A ball in the background: two labels that touch, nothing separates anything.
-  LabelVolume v;
-  GridGeometry g;
-  g.dims = {30, 30, 30};
-  v.allocate(g, 0);
-  for (int k = 0; k < 30; ++k)
-    for (int j = 0; j < 30; ++j)
-      for (int i = 0; i < 30; ++i) v.at(i, j, k) = (i - 15) * (i - 15) + (j - 15) * (j - 15) + (k - 15) * (k - 15) < 100;
+  const LabelVolume v = test::nestedBalls(30, 0.0, 10.0);
+  const GridGeometry& g = v.grid;
   const EdgeTopology t(v, EdgeTopology::Mode::Separating);
   NullProgress np;
   const OctreeBccResult r = generateThinLayerBcc(g, BccParams{3.0, 0.0}, OctreeBccParams{}, t, np);
