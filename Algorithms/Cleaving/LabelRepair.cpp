@@ -781,20 +781,22 @@ LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pa
       if (group[size_t(o + a)] != a) sets.unite(star[size_t(o + a)], star[size_t(o + group[size_t(o + a)])]);
   }
   // Pieces per label: the largest stays; the others are extra (their tets listed when small).
-  std::unordered_map<int32_t, int64_t> size; // root -> tets
-  for (int64_t t = 0; t < nt; ++t) ++size[sets.find(int32_t(t))];
-  std::map<int32_t, std::pair<int64_t, int32_t>> largest; // label -> (tets, root)
+  std::vector<int32_t> rootOf(static_cast<size_t>(nt)), size(static_cast<size_t>(nt), 0); // size per root, in tets
+  for (int64_t t = 0; t < nt; ++t) ++size[size_t(rootOf[size_t(t)] = sets.find(int32_t(t)))];
+  std::unordered_map<int32_t, int32_t> largest; // label -> root of its largest piece (ties: smaller root)
   for (int64_t t = 0; t < nt; ++t) {
-    const int32_t r = sets.find(int32_t(t));
-    auto& l = largest[mesh.materials[size_t(t)]];
-    if (size[r] > l.first || (size[r] == l.first && r < l.second)) l = {size[r], r};
+    if (rootOf[size_t(t)] != t) continue;
+    auto [it, fresh] = largest.try_emplace(mesh.materials[size_t(t)], int32_t(t));
+    if (!fresh && size[size_t(t)] > size[size_t(it->second)]) it->second = int32_t(t);
   }
+  std::vector<uint8_t> kept(size_t(nt), 0);
+  for (const auto& [label, r] : largest) kept[size_t(r)] = 1;
   std::map<int32_t, std::vector<int32_t>> extra; // root -> tets
   for (int64_t t = 0; t < nt; ++t) {
-    const int32_t r = sets.find(int32_t(t));
-    if (largest[mesh.materials[size_t(t)]].second == r) continue;
+    const int32_t r = rootOf[size_t(t)];
+    if (kept[size_t(r)]) continue;
     check.extraPieces = true;
-    if (size[r] <= kSmallPieceTets) extra[r].push_back(int32_t(t));
+    if (size[size_t(r)] <= kSmallPieceTets) extra[r].push_back(int32_t(t));
     else check.largeExtraPieces = true;
   }
   for (auto& [r, tets] : extra) check.smallPieces.push_back(std::move(tets));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "Algorithms/Quality/LabelRuns.h"
 #include "Algorithms/Quality/LabelTopology.h"
 
 namespace tetflow {
@@ -32,62 +33,20 @@ void removeUnusedVertices(TetMesh& mesh) {
 }
 
 namespace {
-// The 26-connected components of one label's voxels, from its runs along x: runs of neighbouring
-// rows (the 8 rows around, in y and z) are joined when they overlap with one voxel of slack.
-// comp (per voxel, -1 elsewhere) only when `perVoxel` and some component is a cavity (does not
-// touch the box): without one, every tet of the label goes and no tet needs a vote. Linear in the voxels (the run scan, both
-// cores) plus near-linear in the runs; no cores, no contacts (what stripping needs of
-// analyzeLabelImage, at a fraction of its cost).
+// The 26-connected components of one label's voxels, from its runs along x (LabelRuns.h). comp
+// (per voxel, -1 elsewhere) only when `perVoxel` and some component is a cavity (does not touch
+// the box): without one, every tet of the label goes and no tet needs a vote. No cores, no
+// contacts: what stripping needs of analyzeLabelImage, for one label.
 LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool perVoxel, Progress& progress) {
-  const auto& d = labels.grid.dims;
-  const int64_t nx = d[0], ny = d[1], nz = d[2], rows = ny * nz;
-  struct Run {
-    int32_t i0, i1;
-  };
-  std::vector<int64_t> start(size_t(rows) + 1, 0);
-  auto scanRow = [&](int64_t r, Run* out) {
-    const int32_t* row = labels.data.data() + labels.index(0, r % ny, r / ny);
-    int64_t n = 0;
-    for (int64_t i = 0; i < nx;) {
-      if (row[i] != L) {
-        ++i;
-        continue;
-      }
-      const int64_t i0 = i;
-      while (i < nx && row[i] == L) ++i;
-      if (out) out[n] = {int32_t(i0), int32_t(i - 1)};
-      ++n;
-    }
-    return n;
-  };
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t r = 0; r < rows; ++r) start[size_t(r) + 1] = scanRow(r, nullptr);
-  for (int64_t r = 0; r < rows; ++r) start[size_t(r) + 1] += start[size_t(r)];
-  std::vector<Run> runs(size_t(start[size_t(rows)]));
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t r = 0; r < rows; ++r) scanRow(r, runs.data() + start[size_t(r)]);
-  progress.checkCancel();
+  const LabelRows rows = labelRows(labels, L);
+  const int64_t nx = rows.nx, ny = rows.ny, nz = rows.nz;
+  const auto& start = rows.start;
+  const auto& runs = rows.runs;
   DisjointSets sets(runs.size());
-  static constexpr int kForward[4][2] = {{1, 0}, {-1, 1}, {0, 1}, {1, 1}}; // (dy, dz): half of the 8 rows around
-  for (int64_t r = 0; r < rows; ++r) {
-    progress.checkCancelEvery(r);
-    const int64_t j = r % ny, k = r / ny;
-    for (const auto& f : kForward) {
-      const int64_t j2 = j + f[0], k2 = k + f[1];
-      if (j2 < 0 || j2 >= ny || k2 >= nz) continue;
-      const int64_t r2 = j2 + ny * k2;
-      int64_t a = start[size_t(r)], b = start[size_t(r2)];
-      while (a < start[size_t(r) + 1] && b < start[size_t(r2) + 1]) {
-        const Run &x = runs[size_t(a)], &y = runs[size_t(b)];
-        if (x.i1 + 1 >= y.i0 && y.i1 + 1 >= x.i0) sets.unite(int32_t(a), int32_t(b));
-        if (x.i1 < y.i1) ++a;
-        else ++b;
-      }
-    }
-  }
+  joinRuns(rows, sets, progress);
   LabelImageTopology out;
   std::vector<int32_t> index(runs.size(), -1), compOfRun(runs.size(), -1);
-  for (int64_t r = 0; r < rows; ++r) {
+  for (int64_t r = 0; r < rows.rows(); ++r) {
     const int64_t j = r % ny, k = r / ny;
     const bool rowOnBox = j == 0 || j == ny - 1 || k == 0 || k == nz - 1;
     for (int64_t q = start[size_t(r)]; q < start[size_t(r) + 1]; ++q) {
@@ -99,7 +58,7 @@ LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool pe
       }
       compOfRun[size_t(q)] = index[size_t(root)];
       ImageComponent& c = out.comps[size_t(index[size_t(root)])];
-      const Run& x = runs[size_t(q)];
+      const LabelRun& x = runs[size_t(q)];
       c.voxels += x.i1 - x.i0 + 1;
       c.touchesBox = c.touchesBox || rowOnBox || x.i0 == 0 || x.i1 == nx - 1;
     }
@@ -108,10 +67,10 @@ LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool pe
   if (perVoxel && cavity) {
     out.comp.assign(labels.data.size(), -1);
 #pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t r = 0; r < rows; ++r) {
+    for (int64_t r = 0; r < rows.rows(); ++r) {
       int32_t* row = out.comp.data() + labels.index(0, r % ny, r / ny);
       for (int64_t q = start[size_t(r)]; q < start[size_t(r) + 1]; ++q) {
-        const Run& x = runs[size_t(q)];
+        const LabelRun& x = runs[size_t(q)];
         for (int32_t i = x.i0; i <= x.i1; ++i) row[i] = compOfRun[size_t(q)];
       }
     }

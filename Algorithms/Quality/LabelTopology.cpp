@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Quality/LabelRuns.h"
 
 namespace tetflow {
 
@@ -25,162 +26,102 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
   const int64_t n = g.voxelCount();
   if (n >= std::numeric_limits<int32_t>::max())
     throw InputError("label volume of " + std::to_string(n) + " voxels is too large for the certificate (limit 2^31)");
-  const auto& lab = v.data;
-  auto idx = [&](int64_t i, int64_t j, int64_t k) { return i + nx * (j + ny * k); };
-  // Work goes in fixed slabs of z planes (not one per thread), so every sum below is made in the
-  // same order whatever the thread count.
-  constexpr int64_t kSlab = 8;
-  const int64_t slabs = (nz + kSlab - 1) / kSlab;
-
-  // 26-connected components of equal labels; cores and their 26-connected components.
-  DisjointSets all(static_cast<size_t>(n)), cores(static_cast<size_t>(n));
-  std::vector<uint8_t> isCore(static_cast<size_t>(n), 0);
-#pragma omp parallel for schedule(static)
-  for (int64_t k = 0; k < nz; ++k)
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
-        auto same = [&](int64_t a, int64_t b, int64_t c) {
-          if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) return true;
-          return lab[static_cast<size_t>(idx(a, b, c))] == L;
-        };
-        isCore[static_cast<size_t>(idx(i, j, k))] =
-            same(i - 1, j, k) && same(i + 1, j, k) && same(i, j - 1, k) && same(i, j + 1, k) &&
-            same(i, j, k - 1) && same(i, j, k + 1);
-      }
-  progress.checkCancel();
-  // Unions with the 13 neighbours before each voxel in scan order: within each slab in parallel
-  // (a set's root is its smallest index, so the sets of one slab stay in it), then across the
-  // first plane of every slab, in order.
-  auto unitePlane = [&](int64_t k, int64_t kMin) {
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int64_t p = idx(i, j, k);
-        const int32_t L = lab[static_cast<size_t>(p)];
-        for (int dk = -1; dk <= 0; ++dk) {
-          if (k + dk < kMin) continue;
-          for (int dj = -1; dj <= 1; ++dj)
-            for (int di = -1; di <= 1; ++di) {
-              if (dk == 0 && (dj > 0 || (dj == 0 && di >= 0))) continue;
-              const int64_t a = i + di, b = j + dj, c = k + dk;
-              if (a < 0 || b < 0 || a >= nx || b >= ny) continue;
-              const int64_t q = idx(a, b, c);
-              if (lab[static_cast<size_t>(q)] != L) continue;
-              all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
-              if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
-                cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
-            }
-        }
-      }
-  };
-  LoopCancel cancel(progress);
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int64_t sl = 0; sl < slabs; ++sl) {
-    if (cancel.skip()) continue;
-    for (int64_t k = sl * kSlab; k < std::min(nz, (sl + 1) * kSlab); ++k) unitePlane(k, sl * kSlab);
-  }
-  cancel.rethrow();
-  for (int64_t sl = 1; sl < slabs; ++sl) { // the dk = -1 neighbours of each slab's first plane
-    const int64_t k = sl * kSlab;
-    for (int64_t j = 0; j < ny; ++j)
-      for (int64_t i = 0; i < nx; ++i) {
-        const int64_t p = idx(i, j, k);
-        const int32_t L = lab[static_cast<size_t>(p)];
-        for (int dj = -1; dj <= 1; ++dj)
-          for (int di = -1; di <= 1; ++di) {
-            const int64_t a = i + di, b = j + dj;
-            if (a < 0 || b < 0 || a >= nx || b >= ny) continue;
-            const int64_t q = idx(a, b, k - 1);
-            if (lab[static_cast<size_t>(q)] != L) continue;
-            all.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
-            if (isCore[static_cast<size_t>(p)] && isCore[static_cast<size_t>(q)])
-              cores.unite(static_cast<int32_t>(p), static_cast<int32_t>(q));
-          }
-      }
-  }
-  progress.checkCancel();
-  // Roots (read only: no path compression while threads share the arrays).
-  auto rootOf = [](const DisjointSets& d, int32_t x) {
-    while (d.parent[static_cast<size_t>(x)] != x) x = d.parent[static_cast<size_t>(x)];
-    return x;
-  };
-  std::vector<int32_t> root(static_cast<size_t>(n)), coreRoot(static_cast<size_t>(n), -1);
-#pragma omp parallel for schedule(static)
-  for (int64_t p = 0; p < n; ++p) {
-    root[size_t(p)] = rootOf(all, int32_t(p));
-    if (isCore[size_t(p)]) coreRoot[size_t(p)] = rootOf(cores, int32_t(p));
-  }
+  // Everything on the runs along x (LabelRuns.h): components are joined runs, cores are joined
+  // runs of core voxels, contacts are where runs end or neighbouring rows differ.
+  const LabelRows rows = labelRows(v);
+  DisjointSets sets(rows.runs.size());
+  joinRuns(rows, sets, progress);
+  const LabelRows cores = coreRows(v);
+  DisjointSets coreSets(cores.runs.size());
+  joinRuns(cores, coreSets, progress);
   progress.checkCancel();
 
   LabelImageTopology s;
-  s.comp.assign(static_cast<size_t>(n), -1);
-  {
-    std::vector<int32_t> rootComp(static_cast<size_t>(n), -1);
-    std::vector<uint8_t> coreCounted(static_cast<size_t>(n), 0);
-    for (int64_t p = 0; p < n; ++p) { // component numbers in scan order
-      int32_t& c = rootComp[size_t(root[size_t(p)])];
-      if (c < 0) {
-        c = static_cast<int32_t>(s.comps.size());
-        s.comps.push_back({});
-        s.comps.back().label = lab[static_cast<size_t>(p)];
-      }
-      s.comp[size_t(p)] = c;
-      ImageComponent& ic = s.comps[static_cast<size_t>(c)];
-      ++ic.voxels;
-      const int32_t cr = coreRoot[size_t(p)];
-      if (cr >= 0 && !coreCounted[size_t(cr)]) {
-        coreCounted[size_t(cr)] = 1;
-        ++ic.cores;
-      }
+  const size_t nr = rows.runs.size();
+  std::vector<int32_t> compOfRun(nr), rootComp(nr, -1);
+  for (size_t q = 0; q < nr; ++q) { // component numbers in scan order
+    int32_t& c = rootComp[size_t(sets.find(int32_t(q)))];
+    if (c < 0) {
+      c = static_cast<int32_t>(s.comps.size());
+      s.comps.emplace_back();
+      s.comps.back().label = rows.runs[q].label;
+    }
+    compOfRun[q] = c;
+  }
+  // Sizes, places and box contact, in scan order; each core component counted once, in the
+  // component of the run that holds its first core run.
+  std::vector<uint8_t> coreCounted(cores.runs.size(), 0);
+  for (int64_t r = 0; r < rows.rows(); ++r) {
+    const int64_t j = r % ny, k = r / ny;
+    const bool rowOnBox = j == 0 || k == 0 || j == ny - 1 || k == nz - 1;
+    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q) {
+      const LabelRun& x = rows.runs[size_t(q)];
+      ImageComponent& ic = s.comps[size_t(compOfRun[size_t(q)])];
+      const int64_t len = x.i1 - x.i0 + 1;
+      ic.voxels += len;
+      ic.where.addRun(g.indexToPhysical(x.i0, double(j), double(k)), g.indexToPhysical(x.i1, double(j), double(k)),
+                      double(len), 1.0);
+      ic.touchesBox = ic.touchesBox || rowOnBox || x.i0 == 0 || x.i1 == nx - 1;
+    }
+    int64_t q = rows.start[size_t(r)];
+    for (int64_t c = cores.start[size_t(r)]; c < cores.start[size_t(r) + 1]; ++c) {
+      while (rows.runs[size_t(q)].i1 < cores.runs[size_t(c)].i0) ++q;
+      const int32_t root = coreSets.find(int32_t(c));
+      if (coreCounted[size_t(root)]) continue;
+      coreCounted[size_t(root)] = 1;
+      ++s.comps[size_t(compOfRun[size_t(q)])].cores;
     }
   }
   progress.checkCancel();
-  // Places and box contact of the components, per slab, merged in slab order.
-  {
-    std::vector<std::vector<std::pair<int32_t, PlaceAcc>>> part(static_cast<size_t>(slabs));
-    std::vector<std::vector<int32_t>> touching(static_cast<size_t>(slabs));
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int64_t sl = 0; sl < slabs; ++sl) {
-      std::unordered_map<int32_t, size_t> at;
-      auto& out = part[size_t(sl)];
-      for (int64_t k = sl * kSlab; k < std::min(nz, (sl + 1) * kSlab); ++k)
-        for (int64_t j = 0; j < ny; ++j)
-          for (int64_t i = 0; i < nx; ++i) {
-            const int32_t c = s.comp[size_t(idx(i, j, k))];
-            auto [it, fresh] = at.try_emplace(c, out.size());
-            if (fresh) out.push_back({c, PlaceAcc{}});
-            out[it->second].second.add(g.indexToPhysical(double(i), double(j), double(k)), 1.0);
-            if (i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1) touching[size_t(sl)].push_back(c);
-          }
-    }
-    for (int64_t sl = 0; sl < slabs; ++sl) {
-      for (const auto& [c, acc] : part[size_t(sl)]) s.comps[size_t(c)].where.merge(acc);
-      for (int32_t c : touching[size_t(sl)]) s.comps[size_t(c)].touchesBox = true;
-    }
+  s.comp.resize(static_cast<size_t>(n));
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t r = 0; r < rows.rows(); ++r) {
+    int32_t* out = s.comp.data() + v.index(0, r % ny, r / ny);
+    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q)
+      std::fill(out + rows.runs[size_t(q)].i0, out + rows.runs[size_t(q)].i1 + 1, compOfRun[size_t(q)]);
   }
   progress.checkCancel();
 
-  // Contacts across voxel faces, per slab, merged in slab order.
+  // Contacts across voxel faces: where a row's runs end (x), and where a row and the next one in
+  // y or z differ; per z plane, merged in plane order (the same sums whatever the thread count).
   const double faceArea[3] = {g.spacing[1] * g.spacing[2], g.spacing[0] * g.spacing[2],
                               g.spacing[0] * g.spacing[1]};
-  std::vector<std::map<uint64_t, std::pair<double, PlaceAcc>>> cpart(static_cast<size_t>(slabs));
+  std::vector<std::map<uint64_t, std::pair<double, PlaceAcc>>> cpart(static_cast<size_t>(nz));
 #pragma omp parallel for schedule(dynamic, 1)
-  for (int64_t sl = 0; sl < slabs; ++sl)
-    for (int64_t k = sl * kSlab; k < std::min(nz, (sl + 1) * kSlab); ++k)
-      for (int64_t j = 0; j < ny; ++j)
-        for (int64_t i = 0; i < nx; ++i) {
-          const int32_t L = lab[static_cast<size_t>(idx(i, j, k))];
-          const int64_t nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
-          for (int a = 0; a < 3; ++a) {
-            if (nb[a][0] >= nx || nb[a][1] >= ny || nb[a][2] >= nz) continue;
-            const int32_t M = lab[static_cast<size_t>(idx(nb[a][0], nb[a][1], nb[a][2]))];
-            if (M == L) continue;
-            auto& e = cpart[size_t(sl)][labelPairKey(L, M)];
-            e.first += faceArea[a];
-            const double h[3] = {a == 0 ? 0.5 : 0.0, a == 1 ? 0.5 : 0.0, a == 2 ? 0.5 : 0.0};
-            e.second.add(g.indexToPhysical(double(i) + h[0], double(j) + h[1], double(k) + h[2]), faceArea[a]);
+  for (int64_t k = 0; k < nz; ++k) {
+    auto& part = cpart[size_t(k)];
+    for (int64_t j = 0; j < ny; ++j) {
+      const int64_t r = j + ny * k;
+      const int64_t b0 = rows.start[size_t(r)], b1 = rows.start[size_t(r) + 1];
+      for (int64_t q = b0; q + 1 < b1; ++q) {
+        const LabelRun &x = rows.runs[size_t(q)], &y = rows.runs[size_t(q) + 1];
+        auto& e = part[labelPairKey(x.label, y.label)];
+        e.first += faceArea[0];
+        e.second.add(g.indexToPhysical(x.i1 + 0.5, double(j), double(k)), faceArea[0]);
+      }
+      // Row r against row r2, one step along axis a (1: y, 2: z).
+      auto across = [&](int64_t r2, int a) {
+        int64_t p = b0, q = rows.start[size_t(r2)];
+        const int64_t q1 = rows.start[size_t(r2) + 1];
+        const double dj = a == 1 ? 0.5 : 0.0, dk = a == 2 ? 0.5 : 0.0;
+        while (p < b1 && q < q1) {
+          const LabelRun &x = rows.runs[size_t(p)], &y = rows.runs[size_t(q)];
+          const int32_t lo = std::max(x.i0, y.i0), hi = std::min(x.i1, y.i1);
+          if (x.label != y.label) {
+            auto& e = part[labelPairKey(x.label, y.label)];
+            const double len = hi - lo + 1;
+            e.first += len * faceArea[a];
+            e.second.addRun(g.indexToPhysical(lo, j + dj, k + dk), g.indexToPhysical(hi, j + dj, k + dk), len,
+                            faceArea[a]);
           }
+          if (x.i1 <= y.i1) ++p;
+          if (y.i1 <= x.i1) ++q;
         }
+      };
+      if (j + 1 < ny) across(r + 1, 1);
+      if (k + 1 < nz) across(r + ny, 2);
+    }
+  }
   for (const auto& m : cpart)
     for (const auto& [key, e] : m) {
       auto& d = s.contacts[key];
@@ -198,17 +139,27 @@ std::vector<std::pair<int32_t, int32_t>> labelContactPairs(const LabelVolume& v)
     auto& out = part[size_t(k)];
     for (int64_t j = 0; j < d[1]; ++j) {
       const int32_t* row = v.data.data() + v.index(0, j, k);
-      const int32_t* up = j + 1 < d[1] ? v.data.data() + v.index(0, j + 1, k) : nullptr;
-      const int32_t* above = k + 1 < d[2] ? v.data.data() + v.index(0, j, k + 1) : nullptr;
-      for (int64_t i = 0; i < d[0]; ++i) {
-        const int32_t a = row[i];
-        const int32_t nbs[3] = {i + 1 < d[0] ? row[i + 1] : a, up ? up[i] : a, above ? above[i] : a};
-        for (int32_t b : nbs)
-          if (b != a) {
-            const std::pair<int32_t, int32_t> pr{std::min(a, b), std::max(a, b)};
-            if (std::find(out.begin(), out.end(), pr) == out.end()) out.push_back(pr);
-          }
-      }
+      // Three plain comparison loops (the compiler vectorises them); a pair is looked up only where
+      // the labels differ.
+      auto add = [&](int32_t a, int32_t b) {
+        const std::pair<int32_t, int32_t> pr{std::min(a, b), std::max(a, b)};
+        if (std::find(out.begin(), out.end(), pr) == out.end()) out.push_back(pr);
+      };
+      auto against = [&](const int32_t* other, int64_t n) {
+        for (int64_t i = 0; i < n;) {
+          constexpr int64_t kBlock = 64;
+          const int64_t e = std::min(n, i + kBlock);
+          bool differ = false;
+          for (int64_t x = i; x < e; ++x) differ |= row[x] != other[x];
+          if (differ)
+            for (int64_t x = i; x < e; ++x)
+              if (row[x] != other[x]) add(row[x], other[x]);
+          i = e;
+        }
+      };
+      against(row + 1, d[0] - 1);
+      if (j + 1 < d[1]) against(v.data.data() + v.index(0, j + 1, k), d[0]);
+      if (k + 1 < d[2]) against(v.data.data() + v.index(0, j, k + 1), d[0]);
     }
   }
   std::vector<std::pair<int32_t, int32_t>> pairs;

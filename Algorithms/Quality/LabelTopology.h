@@ -75,6 +75,13 @@ struct PlaceAcc {
     sum = sum + w * p;
     extend(p);
   }
+  // `count` points evenly spaced from a to b (a == b when count is 1), each of weight w.
+  void addRun(const Vec3& a, const Vec3& b, double count, double w) {
+    weight += count * w;
+    sum = sum + (0.5 * count * w) * (a + b);
+    extend(a);
+    extend(b);
+  }
   void extend(const Vec3& p) {
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], p[a]);

@@ -1,0 +1,40 @@
+#pragma once
+// A label volume as runs along x: each row (j, k) is cut where its label changes. Components,
+// cores and contacts of the image are found on the runs (a few per row on real segmentations)
+// instead of on every voxel; the voxel data are read once per scan.
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "Algorithms/Core/Progress.h"
+#include "Algorithms/Core/Volume.h"
+
+namespace tetflow {
+
+struct DisjointSets;
+
+struct LabelRun {
+  int32_t i0 = 0, i1 = 0; // first and last voxel, inclusive
+  int32_t label = 0;
+};
+
+// Runs of rows r = j + ny k: runs[start[r] .. start[r + 1]), ascending in x.
+struct LabelRows {
+  int64_t nx = 0, ny = 0, nz = 0;
+  std::vector<int64_t> start;
+  std::vector<LabelRun> runs;
+  int64_t rows() const { return ny * nz; }
+};
+
+// Every label's runs (they tile each row), or only label `only`'s. Both cores.
+LabelRows labelRows(const LabelVolume& v, std::optional<int32_t> only = std::nullopt);
+
+// The runs of core voxels (voxels whose six face neighbours carry their label; outside the volume
+// counts as the same label). Both cores.
+LabelRows coreRows(const LabelVolume& v);
+
+// Joins (sets over run indices) the runs of equal labels that are 26-connected: in the same row when
+// they abut, in the 8 rows around when they overlap in x with one voxel of slack.
+void joinRuns(const LabelRows& rows, DisjointSets& sets, Progress& progress);
+
+} // namespace tetflow
