@@ -202,8 +202,9 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   ParamSpec thinOn = makeParam("refine_thin_layers", ParamType::Enum, std::string("separating"), "",
                                "regular_bcc and octree_bcc: split the cells whose edges miss a layer of the "
                                "voxels (seed §6.2) down to thin_layer_cell_size: separating = only where the "
-                               "missed layer keeps apart two labels that never touch (the CSF between skull "
-                               "and brain); all = every layer and sheet thinner than the cells (many more "
+                               "missed layer keeps apart two labels that do not touch near the edge (the CSF "
+                               "between skull and brain) or belongs to a component without a core voxel (a "
+                               "one-voxel sheet, lost whole); all = every layer and sheet thinner than the cells (many more "
                                "tets on a real head); none = the lattice as it is");
   thinOn.choices = {"separating", "all", "none"};
   ParamSpec thinCell = doubleParam("thin_layer_cell_size", 0.0, 0.0, std::nullopt, "mm",

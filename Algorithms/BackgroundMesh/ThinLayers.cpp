@@ -9,13 +9,28 @@ namespace tetflow {
 
 EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(labels), mode_(mode) {
   const GridGeometry& g = labels.grid;
-  contacts_ = labelContactPairs(labels);
+  if (mode == Mode::Separating) {
+    // Voxels of components without a core voxel (one- or two-voxel sheets, rods, specks): a layer
+    // of those is lost entirely where an edge misses it, whatever its ends carry.
+    NullProgress np;
+    const LabelImageTopology img = analyzeLabelImage(labels, np);
+    for (const auto& [key, unused] : img.contacts) contacts_.push_back(labelPairOf(key));
+    if (std::any_of(img.comps.begin(), img.comps.end(), [](const ImageComponent& c) { return c.cores == 0; })) {
+      coreless_.resize(img.comp.size());
+#pragma omp parallel for schedule(static)
+      for (int64_t p = 0; p < int64_t(img.comp.size()); ++p)
+        coreless_[size_t(p)] = img.comps[size_t(img.comp[size_t(p)])].cores == 0;
+    }
+  } else {
+    contacts_ = labelContactPairs(labels);
+  }
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) toIndex_[r][c] = g.direction[c][r] / g.spacing[r];
   voxelSize_ = std::max({g.spacing[0], g.spacing[1], g.spacing[2]});
   for (int a = 0; a < 3; ++a) blocks_[size_t(a)] = (g.dims[size_t(a)] + kBlock - 1) / kBlock;
   const int64_t nb = blocks_[0] * blocks_[1] * blocks_[2];
   uniform_.assign(size_t(nb), 0);
+  if (!coreless_.empty()) corelessBlock_.assign(size_t(nb), 0);
   const auto& d = g.dims;
 #pragma omp parallel for schedule(dynamic, 64)
   for (int64_t b = 0; b < nb; ++b) {
@@ -35,6 +50,13 @@ EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(label
           }
       }
     uniform_[size_t(b)] = same ? 1 : 0;
+    if (!coreless_.empty()) {
+      bool any = false;
+      for (int64_t k = k0; k <= k1 && !any; ++k)
+        for (int64_t j = j0; j <= j1 && !any; ++j)
+          for (int64_t i = i0; i <= i1 && !any; ++i) any = coreless_[size_t(labels.index(i, j, k))] != 0;
+      corelessBlock_[size_t(b)] = any ? 1 : 0;
+    }
   }
 }
 
@@ -44,10 +66,36 @@ bool EdgeTopology::touch(int32_t a, int32_t b) const {
   return a == b || std::binary_search(contacts_.begin(), contacts_.end(), std::pair{std::min(a, b), std::max(a, b)});
 }
 
+bool EdgeTopology::touchNear(int32_t A, int32_t B, const int64_t lo[3], const int64_t hi[3]) const {
+  const auto& d = labels_.grid.dims;
+  int64_t b0[3], b1[3];
+  int64_t count = 1;
+  for (int x = 0; x < 3; ++x) {
+    b0[x] = std::max<int64_t>(0, lo[x] - 1);
+    b1[x] = std::min<int64_t>(d[size_t(x)] - 1, hi[x] + 1);
+    count *= b1[x] - b0[x] + 1;
+  }
+  if (count > kNearVoxels) return true; // a long edge: the image-wide answer (they touch)
+  for (int64_t k = b0[2]; k <= b1[2]; ++k)
+    for (int64_t j = b0[1]; j <= b1[1]; ++j) {
+      const int32_t* row = labels_.data.data() + labels_.index(0, j, k);
+      const int32_t* up = j < b1[1] ? row + d[0] : nullptr;
+      const int32_t* above = k < b1[2] ? row + d[0] * d[1] : nullptr;
+      for (int64_t i = b0[0]; i <= b1[0]; ++i) {
+        const int32_t L = row[i];
+        if (L != A && L != B) continue;
+        const int32_t other = L == A ? B : A;
+        if ((i < b1[0] && row[i + 1] == other) || (up && up[i] == other) || (above && above[i] == other)) return true;
+      }
+    }
+  return false;
+}
+
 namespace {
 struct Touch {
   double t0, t1;
   int32_t label;
+  bool coreless; // a voxel of a component without a core voxel
 };
 } // namespace
 
@@ -59,7 +107,6 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
     for (int x = 0; x < 3; ++x) i[x] = std::clamp<int64_t>(std::llround(u[x]), 0, dims[size_t(x)] - 1);
     return labels_.at(i[0], i[1], i[2]);
   };
-  if (mode_ == Mode::Separating) return !touch(voxelAt(a), voxelAt(b));
   constexpr double eps = kTieWidth;
   // Voxel range touched (clamped: outside, the boundary voxels continue).
   int64_t lo[3], hi[3];
@@ -67,6 +114,18 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
     const double mn = std::min(a[x], b[x]), mx = std::max(a[x], b[x]);
     lo[x] = std::clamp<int64_t>(int64_t(std::floor(mn + 0.5 - eps)), 0, dims[size_t(x)] - 1);
     hi[x] = std::clamp<int64_t>(int64_t(std::floor(mx + 0.5 + eps)), 0, dims[size_t(x)] - 1);
+  }
+  if (mode_ == Mode::Separating) {
+    const int32_t A = voxelAt(a), B = voxelAt(b);
+    if (A != B && (!touch(A, B) || !touchNear(A, B, lo, hi))) return true;
+    // Otherwise only a coreless layer (below) counts.
+    bool coreless = false;
+    if (!corelessBlock_.empty())
+      for (int64_t bk = lo[2] / kBlock; bk <= hi[2] / kBlock && !coreless; ++bk)
+        for (int64_t bj = lo[1] / kBlock; bj <= hi[1] / kBlock && !coreless; ++bj)
+          for (int64_t bi = lo[0] / kBlock; bi <= hi[0] / kBlock && !coreless; ++bi)
+            coreless = corelessBlock_[size_t(bi + blocks_[0] * (bj + blocks_[1] * bk))] != 0;
+    if (!coreless) return false;
   }
   // Blocks: all uniform means one label throughout (adjacent uniform blocks share their halos).
   {
@@ -131,7 +190,8 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
           overflow = true;
           break;
         }
-        touches[n++] = {t0, t1, labels_.at(v[0], v[1], v[2])};
+        const int64_t at = labels_.index(v[0], v[1], v[2]);
+        touches[n++] = {t0, t1, labels_.data[size_t(at)], !coreless_.empty() && coreless_[size_t(at)] != 0};
       }
     }
   }
@@ -146,6 +206,11 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
   // voxel holding each end is the one cleaving sees there, however close it is to another.
   const double minT = kMinStretch / std::max(norm(d), 1e-12);
   const int32_t endLabel[2] = {voxelAt(a), voxelAt(b)};
+  if (mode_ == Mode::Separating &&
+      std::none_of(touches, touches + n, [&](const Touch& x) {
+        return x.coreless && x.label != endLabel[0] && x.label != endLabel[1];
+      }))
+    return false; // no coreless layer between the ends
   auto counts = [&](int32_t label, double t0, double t1) {
     return t1 - t0 >= minT || (t0 <= 0.0 && label == endLabel[0]) || (t1 >= 1.0 && label == endLabel[1]);
   };

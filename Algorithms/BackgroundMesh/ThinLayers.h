@@ -13,7 +13,7 @@
 // kMinStretch voxels of it (a corner grazed does not count),
 //   - it crosses three or more labels, or
 //   - a label comes back after a stretch of another (A, B, A).
-// In Mode::Separating only the first kind counts when the ends carry labels that never touch (below).
+// In Mode::Separating a segment misses a material when its ends carry labels that do not touch near it (below).
 // A background whose every edge passes this test shows every layer the voxels have to the cleaver.
 // The octree (OctreeBcc.h) splits the cells that hold such edges, the seed's "routine subdivision".
 #include <cstdint>
@@ -30,9 +30,15 @@ public:
   static constexpr double kTieWidth = 1e-3;   // voxels
   static constexpr double kMinStretch = 0.25; // voxels: a label over less of the segment does not count
   // Which misses count:
-  //   Separating  only where the segment's ends carry two labels that never touch in the image
-  //               (a face-adjacent voxel pair): the layer between them - the CSF between skull and
-  //               brain - would be missing and the two would touch. Decided by the ends' voxels.
+  //   Separating  only where the segment's ends carry two labels that do not touch (a face-adjacent
+  //               voxel pair) near the segment - in the box of the voxels it passes, widened by
+  //               one voxel: the layer between them (the CSF between skull and brain, a sheet
+  //               between two tissues that meet elsewhere) would be missing there and the two
+  //               would touch. Decided by the ends' voxels and that box; for a long edge (a box of
+  //               more than kNearVoxels voxels) by the whole image (labels that never touch).
+  //               And every miss (as All) of a layer of a component without a core voxel (a
+  //               voxel whose six neighbours carry its label): a one- or two-voxel sheet, rod or
+  //               speck that would be lost whole, whatever labels it lies between.
   //   All         every miss above (three labels, or A B A): every thin layer and sheet.
   enum class Mode { Separating, All };
   // Keeps a reference to `labels`, which must outlive it.
@@ -48,12 +54,18 @@ private:
   const LabelVolume& labels_;
   Mode mode_;
   std::vector<std::pair<int32_t, int32_t>> contacts_; // label pairs (a < b) on face-adjacent voxels, sorted
+  static constexpr int64_t kNearVoxels = 4096;
   bool touch(int32_t a, int32_t b) const;
+  // Whether A and B are face-adjacent somewhere in the voxel box [lo, hi] widened by one voxel.
+  bool touchNear(int32_t A, int32_t B, const int64_t lo[3], const int64_t hi[3]) const;
   Mat3 toIndex_;        // physical offset -> continuous index
   double voxelSize_ = 0;
   std::array<int64_t, 3> blocks_{0, 0, 0};
   // Per block: 1 when the block and its one-voxel halo carry one label.
   std::vector<uint8_t> uniform_;
+  // Separating: per voxel, 1 in a component without a core voxel (empty when there is none); per
+  // block (with its halo), 1 when it holds such a voxel.
+  std::vector<uint8_t> coreless_, corelessBlock_;
   Vec3 index(const Vec3& p) const;
 };
 

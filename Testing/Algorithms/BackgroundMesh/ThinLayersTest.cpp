@@ -64,8 +64,30 @@ TEST(ThinLayers, SegmentsAcrossASheetMissItAndOthersDoNot) {
   EXPECT_TRUE(sep.missesMaterial({8.3, 5, 5}, {12.3, 5, 5}));
   EXPECT_FALSE(sep.missesMaterial({8.3, 5, 5}, {10.1, 5, 5}));
   EXPECT_FALSE(sep.missesMaterial({10.1, 5, 5}, {12.3, 5, 5}));
-  // ... and a sheet inside one label is not separating.
-  EXPECT_FALSE(EdgeTopology(v, EdgeTopology::Mode::Separating).missesMaterial({8.3, 5, 5}, {11.3, 5, 5}));
+  // A layer inside one label (A S A) separates nothing: with a core (the middle voxels of a
+  // three-voxel slab) it is not a miss; without one (the one-voxel sheet, lost whole where missed)
+  // it is.
+  LabelVolume slab = sheet(20, 10);
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 20; ++j) slab.at(9, j, k) = slab.at(11, j, k) = 1;
+  EXPECT_TRUE(EdgeTopology(slab).missesMaterial({7.3, 5, 5}, {12.8, 5, 5}));
+  EXPECT_FALSE(EdgeTopology(slab, EdgeTopology::Mode::Separating).missesMaterial({7.3, 5, 5}, {12.8, 5, 5}));
+  EXPECT_TRUE(EdgeTopology(v, EdgeTopology::Mode::Separating).missesMaterial({8.3, 5, 5}, {11.3, 5, 5}));
+  EXPECT_FALSE(EdgeTopology(v, EdgeTopology::Mode::Separating).missesMaterial({8.3, 5, 5}, {9.3, 5, 5}));
+  // Separating is decided near the segment: a three-voxel layer of 1 (x = 9..11, with a core)
+  // between 0 and 2, with a hole at y, z < 4 where 0 and 2 touch, and only there. Across the layer
+  // far from the hole it would still be missing; through the hole, or one voxel from its rim, not.
+  LabelVolume holed = three;
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 9; i < 12; ++i) holed.at(i, j, k) = j < 4 && k < 4 ? 2 : 1;
+  const EdgeTopology near(holed, EdgeTopology::Mode::Separating);
+  EXPECT_TRUE(near.missesMaterial({7.3, 12, 12}, {13.3, 12, 12}));
+  EXPECT_TRUE(near.missesMaterial({7.3, 6, 6}, {13.3, 6.5, 6}));
+  EXPECT_FALSE(near.missesMaterial({7.3, 2, 2}, {13.3, 2, 2}));
+  EXPECT_FALSE(near.missesMaterial({7.3, 4.2, 2}, {13.3, 4.2, 2})); // the rim (y = 3) within a voxel
+  // A long segment (its box of voxels over kNearVoxels) keeps the image-wide answer: they touch.
+  EXPECT_FALSE(near.missesMaterial({0.2, 19, 19}, {19.8, 6, 6}));
 }
 
 // Faces between labels 0 and 2 of a cleaved mesh: where the shell between them went missing.
