@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 #include "Algorithms/Core/Errors.h"
@@ -365,18 +366,51 @@ private:
     if (ga <= 0) t = 0.0;
     else if (gb >= 0) t = 1.0;
     else t = exact_ ? exactCrossing(v[0], v[1], la, lb, ga, gb) : ga / (ga - gb);
+    // A warped end sits on an interface, where its own label no longer wins (or only just): with
+    // exact points the edge can still cross between the ends' labels away from it - a one-voxel
+    // sheet whose vertex was warped onto the sheet's far face, the edge crossing the near face.
+    // That crossing is kept (searched from the other end) instead of the cut falling onto the
+    // warped vertex, which left the whole tet to the other label.
+    if (exact_ && (t == 0.0 || t == 1.0) && warped_[v[t == 0.0 ? 0 : 1]])
+      if (const auto inner = crossingFromOtherEnd(v[0], v[1], la, lb, ga, gb, t == 1.0)) t = *inner;
     cutT_[e] = static_cast<float>(std::clamp(t, 0.0, 1.0));
+  }
+  // With end b warped (towardB) or end a: the first of the quarter points from the other end where
+  // the sign of f_la - f_lb has changed from that end's, and the crossing before it; none when the
+  // functions do not change sign there.
+  std::optional<double> crossingFromOtherEnd(int32_t a, int32_t b, int32_t la, int32_t lb, double ga, double gb,
+                                             bool towardB) const {
+    thread_local std::vector<MaterialSample> s;
+    const Vec3 pa = pos_[a], pb = pos_[b];
+    auto g = [&](double t) {
+      mats_.sample((1.0 - t) * pa + t * pb, s);
+      float fa = mats_.absentValue(), fb = mats_.absentValue();
+      for (const auto& x : s) {
+        if (x.material == la) fa = x.value;
+        else if (x.material == lb) fb = x.value;
+      }
+      return double(fa) - double(fb);
+    };
+    for (double q : {0.25, 0.5, 0.75}) {
+      const double tq = towardB ? q : 1.0 - q;
+      const double gq = g(tq);
+      if (towardB && ga > 0 && gq < 0) return exactCrossing(a, b, la, lb, ga, gq, 0.0, tq);
+      if (!towardB && gb < 0 && gq > 0) return exactCrossing(a, b, la, lb, gq, gb, tq, 1.0);
+    }
+    return std::nullopt;
   }
   // The crossing of f_la - f_lb on the segment pos_[a] -> pos_[b] (ga > 0 > gb at its ends),
   // by the Illinois variant of regula falsi on the materials themselves, from the linear guess.
-  double exactCrossing(int32_t a, int32_t b, int32_t la, int32_t lb, double ga, double gb) const {
+  // (Within [lo, hi] of the segment when given, ga and gb the values there.)
+  double exactCrossing(int32_t a, int32_t b, int32_t la, int32_t lb, double ga, double gb, double lo = 0.0,
+                       double hi = 1.0) const {
     thread_local std::vector<MaterialSample> s;
     const Vec3 pa = pos_[a], pb = pos_[b];
-    double t0 = 0.0, t1 = 1.0, g0 = ga, g1 = gb;
+    double t0 = lo, t1 = hi, g0 = ga, g1 = gb;
     const double len = norm(pb - pa);
     const double tol = len > 0 ? p_.interface_tolerance / len : 1.0;
     int side = 0;
-    double t = ga / (ga - gb);
+    double t = lo + (hi - lo) * ga / (ga - gb);
     for (int it = 0; it < 12; ++it) {
       mats_.sample((1.0 - t) * pa + t * pb, s);
       float fa = mats_.absentValue(), fb = mats_.absentValue();
