@@ -1,5 +1,6 @@
 #include "ThinLayers.h"
 
+#include "Algorithms/Quality/LabelRuns.h"
 #include "Algorithms/Quality/LabelTopology.h"
 
 #include <algorithm>
@@ -9,20 +10,12 @@ namespace tetflow {
 
 EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(labels), mode_(mode) {
   const GridGeometry& g = labels.grid;
+  contacts_ = labelContactPairs(labels);
+  // Separating: the voxels of components without a core voxel (one- or two-voxel sheets, rods,
+  // specks): a layer of those is lost entirely where an edge misses it, whatever its ends carry.
   if (mode == Mode::Separating) {
-    // Voxels of components without a core voxel (one- or two-voxel sheets, rods, specks): a layer
-    // of those is lost entirely where an edge misses it, whatever its ends carry.
     NullProgress np;
-    const LabelImageTopology img = analyzeLabelImage(labels, np);
-    for (const auto& [key, unused] : img.contacts) contacts_.push_back(labelPairOf(key));
-    if (std::any_of(img.comps.begin(), img.comps.end(), [](const ImageComponent& c) { return c.cores == 0; })) {
-      coreless_.resize(img.comp.size());
-#pragma omp parallel for schedule(static)
-      for (int64_t p = 0; p < int64_t(img.comp.size()); ++p)
-        coreless_[size_t(p)] = img.comps[size_t(img.comp[size_t(p)])].cores == 0;
-    }
-  } else {
-    contacts_ = labelContactPairs(labels);
+    coreless_ = corelessVoxels(labels, np);
   }
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) toIndex_[r][c] = g.direction[c][r] / g.spacing[r];

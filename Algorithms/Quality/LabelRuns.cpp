@@ -2,6 +2,8 @@
 
 #include "Algorithms/Quality/LabelTopology.h"
 
+#include <algorithm>
+
 namespace tetflow {
 
 namespace {
@@ -94,6 +96,37 @@ void joinRuns(const LabelRows& rows, DisjointSets& sets, Progress& progress) {
       }
     }
   }
+}
+
+std::vector<uint8_t> corelessVoxels(const LabelVolume& v, Progress& progress) {
+  const LabelRows rows = labelRows(v);
+  DisjointSets sets(rows.runs.size());
+  joinRuns(rows, sets, progress);
+  const LabelRows cores = coreRows(v);
+  std::vector<uint8_t> cored(rows.runs.size(), 0); // per root
+  for (int64_t r = 0; r < rows.rows(); ++r) { // each core run lies in one run of its row
+    int64_t q = rows.start[size_t(r)];
+    for (int64_t c = cores.start[size_t(r)]; c < cores.start[size_t(r) + 1]; ++c) {
+      while (rows.runs[size_t(q)].i1 < cores.runs[size_t(c)].i0) ++q;
+      cored[size_t(sets.find(int32_t(q)))] = 1;
+    }
+  }
+  std::vector<uint8_t> coreless(rows.runs.size(), 0); // per run
+  bool any = false;
+  for (size_t q = 0; q < rows.runs.size(); ++q) {
+    coreless[q] = !cored[size_t(sets.find(int32_t(q)))];
+    any = any || coreless[q];
+  }
+  std::vector<uint8_t> out;
+  if (!any) return out;
+  out.assign(v.data.size(), 0);
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t r = 0; r < rows.rows(); ++r) {
+    uint8_t* row = out.data() + v.index(0, r % rows.ny, r / rows.ny);
+    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q)
+      if (coreless[size_t(q)]) std::fill(row + rows.runs[size_t(q)].i0, row + rows.runs[size_t(q)].i1 + 1, uint8_t(1));
+  }
+  return out;
 }
 
 } // namespace tetflow

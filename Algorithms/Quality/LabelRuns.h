@@ -37,4 +37,9 @@ LabelRows coreRows(const LabelVolume& v);
 // they abut, in the 8 rows around when they overlap in x with one voxel of slack.
 void joinRuns(const LabelRows& rows, DisjointSets& sets, Progress& progress);
 
+// Per voxel, 1 when its component (26-connected, equal labels) has no core voxel (a one- or
+// two-voxel sheet, rod or speck); empty when every component has one. Memory: the runs, and the
+// flags only when there is such a component.
+std::vector<uint8_t> corelessVoxels(const LabelVolume& v, Progress& progress);
+
 } // namespace tetflow

@@ -1,13 +1,14 @@
 // Tests for analyzeLabelImage (Algorithms/Quality/LabelTopology.h), which works on the runs of the
 // rows (LabelRuns.h), against a plain voxel-by-voxel computation of the same definitions: BFS
 // components numbered in scan order, cores and their 26-connected groups, box contact, places,
-// and the face contacts with their areas and face centres. Random volumes with fixed seeds, with
+// the face contacts with their areas and face centres, and the voxels of coreless components. Random volumes with fixed seeds, with
 // long runs (boxes), salt (runs of one voxel), diagonal-only contacts and labels on the box.
 #include "Algorithms/Quality/LabelRuns.h"
 #include "Algorithms/Quality/LabelTopology.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <deque>
 #include <map>
@@ -151,6 +152,13 @@ TEST(LabelTopology, TheRunsGiveWhatAVoxelByVoxelAnalysisGives) {
       expectNear(g.second.place().boxMin, e.second.place().boxMin);
       expectNear(g.second.place().boxMax, e.second.place().boxMax);
     }
+    // The coreless voxels alone (corelessVoxels): empty when every component has a core.
+    const std::vector<uint8_t> coreless = corelessVoxels(v, np);
+    const bool anyCoreless =
+        std::any_of(want.comps.begin(), want.comps.end(), [](const ImageComponent& k) { return k.cores == 0; });
+    ASSERT_EQ(coreless.empty(), !anyCoreless);
+    for (size_t p = 0; p < coreless.size(); ++p)
+      ASSERT_EQ(coreless[p] != 0, want.comps[size_t(want.comp[p])].cores == 0) << "voxel " << p;
     // The contact pairs alone (labelContactPairs) are the same pairs.
     std::vector<std::pair<int32_t, int32_t>> pairs;
     for (const auto& [key, e] : want.contacts) pairs.push_back(labelPairOf(key));
