@@ -17,6 +17,7 @@
 #include <set>
 
 #include "Algorithms/Core/Errors.h"
+#include "Fixtures/VoxelComponents.h"
 #include "Fixtures/VoxelMesh.h"
 #include "TestUtil.h"
 
@@ -53,45 +54,8 @@ struct Brute {
 };
 
 Brute bruteForce(const LabelVolume& v) {
-  const auto& g = v.grid;
-  const int nx = int(g.dims[0]), ny = int(g.dims[1]), nz = int(g.dims[2]);
-  auto in = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i < nx && j < ny && k < nz; };
-  auto core = [&](int i, int j, int k) {
-    const int32_t L = v.at(i, j, k);
-    const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (const auto& e : d)
-      if (in(i + e[0], j + e[1], k + e[2]) && v.at(i + e[0], j + e[1], k + e[2]) != L) return false;
-    return true;
-  };
-  // BFS labelling of a voxel subset under 6- or 26-connectivity.
-  auto components = [&](auto member, bool full) {
-    std::vector<int> comp(size_t(v.grid.voxelCount()), -1);
-    int n = 0;
-    for (int k = 0; k < nz; ++k)
-      for (int j = 0; j < ny; ++j)
-        for (int i = 0; i < nx; ++i) {
-          if (!member(i, j, k) || comp[size_t(v.index(i, j, k))] >= 0) continue;
-          std::deque<std::array<int, 3>> q{{i, j, k}};
-          comp[size_t(v.index(i, j, k))] = n;
-          while (!q.empty()) {
-            const auto [a, b, c] = q.front();
-            q.pop_front();
-            for (int dk = -1; dk <= 1; ++dk)
-              for (int dj = -1; dj <= 1; ++dj)
-                for (int di = -1; di <= 1; ++di) {
-                  const int s = std::abs(di) + std::abs(dj) + std::abs(dk);
-                  if (s == 0 || (!full && s != 1)) continue;
-                  const int x = a + di, y = b + dj, z = c + dk;
-                  if (!in(x, y, z) || !member(x, y, z) || v.at(x, y, z) != v.at(a, b, c)) continue;
-                  if (comp[size_t(v.index(x, y, z))] >= 0) continue;
-                  comp[size_t(v.index(x, y, z))] = n;
-                  q.push_back({x, y, z});
-                }
-          }
-          ++n;
-        }
-    return std::make_pair(comp, n);
-  };
+  auto core = [&](int i, int j, int k) { return test::isCoreVoxel(v, i, j, k); };
+  auto components = [&](auto member, bool full) { return test::voxelComponents(v, member, full); };
   auto all = [](int, int, int) { return true; };
   const auto [c26, n26] = components(all, true);
   const auto [c6, n6] = components(all, false);

@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "Fixtures/VoxelComponents.h"
+
 #include <algorithm>
 #include <array>
 #include <deque>
@@ -54,39 +56,9 @@ struct Expected {
 Expected byVoxels(const LabelVolume& v) {
   const auto& g = v.grid;
   const int nx = int(g.dims[0]), ny = int(g.dims[1]), nz = int(g.dims[2]);
-  auto in = [&](int i, int j, int k) { return i >= 0 && j >= 0 && k >= 0 && i < nx && j < ny && k < nz; };
-  auto core = [&](int i, int j, int k) {
-    const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (const auto& e : d)
-      if (in(i + e[0], j + e[1], k + e[2]) && v.at(i + e[0], j + e[1], k + e[2]) != v.at(i, j, k)) return false;
-    return true;
-  };
-  auto bfs = [&](auto member) { // 26-connected, equal labels, numbered in scan order
-    std::vector<int32_t> comp(size_t(g.voxelCount()), -1);
-    int32_t n = 0;
-    for (int k = 0; k < nz; ++k)
-      for (int j = 0; j < ny; ++j)
-        for (int i = 0; i < nx; ++i) {
-          if (!member(i, j, k) || comp[size_t(v.index(i, j, k))] >= 0) continue;
-          std::deque<std::array<int, 3>> q{{i, j, k}};
-          comp[size_t(v.index(i, j, k))] = n;
-          while (!q.empty()) {
-            const auto [a, b, c] = q.front();
-            q.pop_front();
-            for (int dk = -1; dk <= 1; ++dk)
-              for (int dj = -1; dj <= 1; ++dj)
-                for (int di = -1; di <= 1; ++di) {
-                  const int x = a + di, y = b + dj, z = c + dk;
-                  if (!in(x, y, z) || !member(x, y, z) || v.at(x, y, z) != v.at(a, b, c)) continue;
-                  if (comp[size_t(v.index(x, y, z))] >= 0) continue;
-                  comp[size_t(v.index(x, y, z))] = n;
-                  q.push_back({x, y, z});
-                }
-          }
-          ++n;
-        }
-    return std::make_pair(comp, n);
-  };
+  auto in = [&](int i, int j, int k) { return test::insideVolume(v, i, j, k); };
+  auto core = [&](int i, int j, int k) { return test::isCoreVoxel(v, i, j, k); };
+  auto bfs = [&](auto member) { return test::voxelComponents(v, member, true); };
   Expected e;
   const auto [comp, n] = bfs([](int, int, int) { return true; });
   const auto [cores, nc] = bfs(core);
