@@ -3,10 +3,17 @@
 #include "Algorithms/Quality/LabelTopology.h"
 
 #include <algorithm>
+#include <vector>
 
 namespace tetflow {
 
 namespace {
+// c[i] &= (a[i] == b[i]): restrict, since a uint8_t store may otherwise alias the labels and keep
+// the loop from being vectorised.
+void andEqual(uint8_t* __restrict c, const int32_t* __restrict a, const int32_t* __restrict b, int64_t n) {
+  for (int64_t i = 0; i < n; ++i) c[i] &= uint8_t(a[i] == b[i]);
+}
+
 // Count, prefix-sum and fill: `scan(r, out)` returns the number of runs of row r and writes them
 // when out is not null.
 template <class Scan>
@@ -51,21 +58,22 @@ LabelRows coreRows(const LabelVolume& v) {
     const int32_t* row = v.data.data() + v.index(0, j, k);
     const int32_t* around[4] = {j > 0 ? row - nx : nullptr, j + 1 < ny ? row + nx : nullptr,
                                 k > 0 ? row - nx * ny : nullptr, k + 1 < nz ? row + nx * ny : nullptr};
-    auto core = [&](int64_t i) {
-      const int32_t L = row[i];
-      if ((i > 0 && row[i - 1] != L) || (i + 1 < nx && row[i + 1] != L)) return false;
-      for (const int32_t* o : around)
-        if (o && o[i] != L) return false;
-      return true;
-    };
+    // Per voxel, whether it is a core voxel: plain loops over the row (vectorised), then its runs.
+    thread_local std::vector<uint8_t> core;
+    core.assign(size_t(nx), 1);
+    uint8_t* c = core.data();
+    andEqual(c, row, row + 1, nx - 1);     // the voxel after
+    andEqual(c + 1, row + 1, row, nx - 1); // the voxel before
+    for (const int32_t* o : around)
+      if (o) andEqual(c, row, o, nx);
     int64_t n = 0;
     for (int64_t i = 0; i < nx;) {
-      if (!core(i)) {
+      if (!c[i]) {
         ++i;
         continue;
       }
       const int64_t i0 = i; // neighbouring core voxels of a row carry one label
-      while (i < nx && core(i)) ++i;
+      while (i < nx && c[i]) ++i;
       if (out) out[n] = {int32_t(i0), int32_t(i - 1), row[i0]};
       ++n;
     }
