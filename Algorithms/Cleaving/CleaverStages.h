@@ -380,31 +380,31 @@ private:
   // functions do not change sign there.
   std::optional<double> crossingFromOtherEnd(int32_t a, int32_t b, int32_t la, int32_t lb, double ga, double gb,
                                              bool towardB) const {
-    thread_local std::vector<MaterialSample> s;
     const Vec3 pa = pos_[a], pb = pos_[b];
-    auto g = [&](double t) {
-      mats_.sample((1.0 - t) * pa + t * pb, s);
-      float fa = mats_.absentValue(), fb = mats_.absentValue();
-      for (const auto& x : s) {
-        if (x.material == la) fa = x.value;
-        else if (x.material == lb) fb = x.value;
-      }
-      return double(fa) - double(fb);
-    };
     for (double q : {0.25, 0.5, 0.75}) {
       const double tq = towardB ? q : 1.0 - q;
-      const double gq = g(tq);
+      const double gq = difference((1.0 - tq) * pa + tq * pb, la, lb);
       if (towardB && ga > 0 && gq < 0) return exactCrossing(a, b, la, lb, ga, gq, 0.0, tq);
       if (!towardB && gb < 0 && gq > 0) return exactCrossing(a, b, la, lb, gq, gb, tq, 1.0);
     }
     return std::nullopt;
+  }
+  // f_la - f_lb at p (the materials sampled there).
+  double difference(const Vec3& p, int32_t la, int32_t lb) const {
+    thread_local std::vector<MaterialSample> s;
+    mats_.sample(p, s);
+    float fa = mats_.absentValue(), fb = mats_.absentValue();
+    for (const auto& x : s) {
+      if (x.material == la) fa = x.value;
+      else if (x.material == lb) fb = x.value;
+    }
+    return double(fa) - double(fb);
   }
   // The crossing of f_la - f_lb on the segment pos_[a] -> pos_[b] (ga > 0 > gb at its ends),
   // by the Illinois variant of regula falsi on the materials themselves, from the linear guess.
   // (Within [lo, hi] of the segment when given, ga and gb the values there.)
   double exactCrossing(int32_t a, int32_t b, int32_t la, int32_t lb, double ga, double gb, double lo = 0.0,
                        double hi = 1.0) const {
-    thread_local std::vector<MaterialSample> s;
     const Vec3 pa = pos_[a], pb = pos_[b];
     double t0 = lo, t1 = hi, g0 = ga, g1 = gb;
     const double len = norm(pb - pa);
@@ -412,13 +412,7 @@ private:
     int side = 0;
     double t = lo + (hi - lo) * ga / (ga - gb);
     for (int it = 0; it < 12; ++it) {
-      mats_.sample((1.0 - t) * pa + t * pb, s);
-      float fa = mats_.absentValue(), fb = mats_.absentValue();
-      for (const auto& x : s) {
-        if (x.material == la) fa = x.value;
-        else if (x.material == lb) fb = x.value;
-      }
-      const double g = double(fa) - double(fb);
+      const double g = difference((1.0 - t) * pa + t * pb, la, lb);
       if (g == 0.0) return t;
       if (g > 0) {
         t0 = t;
