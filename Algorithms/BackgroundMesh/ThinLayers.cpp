@@ -59,6 +59,15 @@ bool EdgeTopology::touch(int32_t a, int32_t b) const {
   return a == b || std::binary_search(contacts_.begin(), contacts_.end(), std::pair{std::min(a, b), std::max(a, b)});
 }
 
+bool EdgeTopology::anyBlock(const std::vector<uint8_t>& flags, const int64_t lo[3], const int64_t hi[3],
+                            uint8_t value) const {
+  for (int64_t bk = lo[2] / kBlock; bk <= hi[2] / kBlock; ++bk)
+    for (int64_t bj = lo[1] / kBlock; bj <= hi[1] / kBlock; ++bj)
+      for (int64_t bi = lo[0] / kBlock; bi <= hi[0] / kBlock; ++bi)
+        if (flags[size_t(bi + blocks_[0] * (bj + blocks_[1] * bk))] == value) return true;
+  return false;
+}
+
 bool EdgeTopology::touchNear(int32_t A, int32_t B, const int64_t lo[3], const int64_t hi[3]) const {
   const auto& d = labels_.grid.dims;
   int64_t b0[3], b1[3];
@@ -112,23 +121,10 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
     const int32_t A = voxelAt(a), B = voxelAt(b);
     if (A != B && (!touch(A, B) || !touchNear(A, B, lo, hi))) return true;
     // Otherwise only a coreless layer (below) counts.
-    bool coreless = false;
-    if (!corelessBlock_.empty())
-      for (int64_t bk = lo[2] / kBlock; bk <= hi[2] / kBlock && !coreless; ++bk)
-        for (int64_t bj = lo[1] / kBlock; bj <= hi[1] / kBlock && !coreless; ++bj)
-          for (int64_t bi = lo[0] / kBlock; bi <= hi[0] / kBlock && !coreless; ++bi)
-            coreless = corelessBlock_[size_t(bi + blocks_[0] * (bj + blocks_[1] * bk))] != 0;
-    if (!coreless) return false;
+    if (corelessBlock_.empty() || !anyBlock(corelessBlock_, lo, hi, 1)) return false;
   }
   // Blocks: all uniform means one label throughout (adjacent uniform blocks share their halos).
-  {
-    bool allUniform = true;
-    for (int64_t bk = lo[2] / kBlock; bk <= hi[2] / kBlock && allUniform; ++bk)
-      for (int64_t bj = lo[1] / kBlock; bj <= hi[1] / kBlock && allUniform; ++bj)
-        for (int64_t bi = lo[0] / kBlock; bi <= hi[0] / kBlock && allUniform; ++bi)
-          allUniform = uniform_[size_t(bi + blocks_[0] * (bj + blocks_[1] * bk))] != 0;
-    if (allUniform) return false;
-  }
+  if (!anyBlock(uniform_, lo, hi, 0)) return false;
   // The t-interval of [0, 1] where coordinate x lies in voxel i's slab widened by eps.
   const Vec3 d = b - a;
   auto slab = [&](int x, int64_t i, double& t0, double& t1) {

@@ -45,20 +45,16 @@ LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool pe
   DisjointSets sets(runs.size());
   joinRuns(rows, sets, progress);
   LabelImageTopology out;
-  std::vector<int32_t> index(runs.size(), -1), compOfRun(runs.size(), -1);
+  int32_t count = 0;
+  const std::vector<int32_t> compOfRun = runComponents(rows, sets, count);
+  out.comps.resize(size_t(count));
   for (int64_t r = 0; r < rows.rows(); ++r) {
     const int64_t j = r % ny, k = r / ny;
     const bool rowOnBox = j == 0 || j == ny - 1 || k == 0 || k == nz - 1;
     for (int64_t q = start[size_t(r)]; q < start[size_t(r) + 1]; ++q) {
-      const int32_t root = sets.find(int32_t(q));
-      if (index[size_t(root)] < 0) {
-        index[size_t(root)] = int32_t(out.comps.size());
-        out.comps.emplace_back();
-        out.comps.back().label = L;
-      }
-      compOfRun[size_t(q)] = index[size_t(root)];
-      ImageComponent& c = out.comps[size_t(index[size_t(root)])];
+      ImageComponent& c = out.comps[size_t(compOfRun[size_t(q)])];
       const LabelRun& x = runs[size_t(q)];
+      c.label = L;
       c.voxels += x.i1 - x.i0 + 1;
       c.touchesBox = c.touchesBox || rowOnBox || x.i0 == 0 || x.i1 == nx - 1;
     }
@@ -66,14 +62,7 @@ LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool pe
   const bool cavity = std::any_of(out.comps.begin(), out.comps.end(), [](const ImageComponent& c) { return !c.touchesBox; });
   if (perVoxel && cavity) {
     out.comp.assign(labels.data.size(), -1);
-#pragma omp parallel for schedule(dynamic, 64)
-    for (int64_t r = 0; r < rows.rows(); ++r) {
-      int32_t* row = out.comp.data() + labels.index(0, r % ny, r / ny);
-      for (int64_t q = start[size_t(r)]; q < start[size_t(r) + 1]; ++q) {
-        const LabelRun& x = runs[size_t(q)];
-        for (int32_t i = x.i0; i <= x.i1; ++i) row[i] = compOfRun[size_t(q)];
-      }
-    }
+    paintRuns(rows, compOfRun, out.comp);
   }
   return out;
 }

@@ -106,34 +106,30 @@ void joinRuns(const LabelRows& rows, DisjointSets& sets, Progress& progress) {
   }
 }
 
+std::vector<int32_t> runComponents(const LabelRows& rows, DisjointSets& sets, int32_t& count) {
+  std::vector<int32_t> comp(rows.runs.size()), rootComp(rows.runs.size(), -1);
+  count = 0;
+  for (size_t q = 0; q < rows.runs.size(); ++q) {
+    int32_t& c = rootComp[size_t(sets.find(int32_t(q)))];
+    if (c < 0) c = count++;
+    comp[q] = c;
+  }
+  return comp;
+}
+
 std::vector<uint8_t> corelessVoxels(const LabelVolume& v, Progress& progress) {
   const LabelRows rows = labelRows(v);
   DisjointSets sets(rows.runs.size());
   joinRuns(rows, sets, progress);
-  const LabelRows cores = coreRows(v);
-  std::vector<uint8_t> cored(rows.runs.size(), 0); // per root
-  for (int64_t r = 0; r < rows.rows(); ++r) { // each core run lies in one run of its row
-    int64_t q = rows.start[size_t(r)];
-    for (int64_t c = cores.start[size_t(r)]; c < cores.start[size_t(r) + 1]; ++c) {
-      while (rows.runs[size_t(q)].i1 < cores.runs[size_t(c)].i0) ++q;
-      cored[size_t(sets.find(int32_t(q)))] = 1;
-    }
-  }
-  std::vector<uint8_t> coreless(rows.runs.size(), 0); // per run
-  bool any = false;
-  for (size_t q = 0; q < rows.runs.size(); ++q) {
-    coreless[q] = !cored[size_t(sets.find(int32_t(q)))];
-    any = any || coreless[q];
-  }
-  std::vector<uint8_t> out;
-  if (!any) return out;
-  out.assign(v.data.size(), 0);
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t r = 0; r < rows.rows(); ++r) {
-    uint8_t* row = out.data() + v.index(0, r % rows.ny, r / rows.ny);
-    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q)
-      if (coreless[size_t(q)]) std::fill(row + rows.runs[size_t(q)].i0, row + rows.runs[size_t(q)].i1 + 1, uint8_t(1));
-  }
+  int32_t n = 0;
+  const std::vector<int32_t> comp = runComponents(rows, sets, n);
+  std::vector<uint8_t> cored(size_t(n), 0);
+  forEachCoreRun(rows, coreRows(v), [&](int64_t, int64_t q) { cored[size_t(comp[size_t(q)])] = 1; });
+  if (std::all_of(cored.begin(), cored.end(), [](uint8_t c) { return c != 0; })) return {};
+  std::vector<uint8_t> perRun(rows.runs.size());
+  for (size_t q = 0; q < perRun.size(); ++q) perRun[q] = !cored[size_t(comp[q])];
+  std::vector<uint8_t> out(v.data.size());
+  paintRuns(rows, perRun, out);
   return out;
 }
 

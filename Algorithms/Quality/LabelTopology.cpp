@@ -37,20 +37,11 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
   progress.checkCancel();
 
   LabelImageTopology s;
-  const size_t nr = rows.runs.size();
-  std::vector<int32_t> compOfRun(nr), rootComp(nr, -1);
-  for (size_t q = 0; q < nr; ++q) { // component numbers in scan order
-    int32_t& c = rootComp[size_t(sets.find(int32_t(q)))];
-    if (c < 0) {
-      c = static_cast<int32_t>(s.comps.size());
-      s.comps.emplace_back();
-      s.comps.back().label = rows.runs[q].label;
-    }
-    compOfRun[q] = c;
-  }
-  // Sizes, places and box contact, in scan order; each core component counted once, in the
-  // component of the run that holds its first core run.
-  std::vector<uint8_t> coreCounted(cores.runs.size(), 0);
+  int32_t count = 0;
+  const std::vector<int32_t> compOfRun = runComponents(rows, sets, count); // in scan order
+  s.comps.resize(size_t(count));
+  // Labels, sizes, places and box contact; each core component counted once, in the component of
+  // the run that holds its first core run.
   for (int64_t r = 0; r < rows.rows(); ++r) {
     const int64_t j = r % ny, k = r / ny;
     const bool rowOnBox = j == 0 || k == 0 || j == ny - 1 || k == nz - 1;
@@ -58,28 +49,23 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress) {
       const LabelRun& x = rows.runs[size_t(q)];
       ImageComponent& ic = s.comps[size_t(compOfRun[size_t(q)])];
       const int64_t len = x.i1 - x.i0 + 1;
+      ic.label = x.label;
       ic.voxels += len;
       ic.where.addRun(g.indexToPhysical(x.i0, double(j), double(k)), g.indexToPhysical(x.i1, double(j), double(k)),
                       double(len), 1.0);
       ic.touchesBox = ic.touchesBox || rowOnBox || x.i0 == 0 || x.i1 == nx - 1;
     }
-    int64_t q = rows.start[size_t(r)];
-    for (int64_t c = cores.start[size_t(r)]; c < cores.start[size_t(r) + 1]; ++c) {
-      while (rows.runs[size_t(q)].i1 < cores.runs[size_t(c)].i0) ++q;
-      const int32_t root = coreSets.find(int32_t(c));
-      if (coreCounted[size_t(root)]) continue;
-      coreCounted[size_t(root)] = 1;
-      ++s.comps[size_t(compOfRun[size_t(q)])].cores;
-    }
   }
+  std::vector<uint8_t> coreCounted(cores.runs.size(), 0);
+  forEachCoreRun(rows, cores, [&](int64_t c, int64_t q) {
+    const int32_t root = coreSets.find(int32_t(c));
+    if (coreCounted[size_t(root)]) return;
+    coreCounted[size_t(root)] = 1;
+    ++s.comps[size_t(compOfRun[size_t(q)])].cores;
+  });
   progress.checkCancel();
   s.comp.resize(static_cast<size_t>(n));
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t r = 0; r < rows.rows(); ++r) {
-    int32_t* out = s.comp.data() + v.index(0, r % ny, r / ny);
-    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q)
-      std::fill(out + rows.runs[size_t(q)].i0, out + rows.runs[size_t(q)].i1 + 1, compOfRun[size_t(q)]);
-  }
+  paintRuns(rows, compOfRun, s.comp);
   progress.checkCancel();
 
   // Contacts across voxel faces: where a row's runs end (x), and where a row and the next one in
