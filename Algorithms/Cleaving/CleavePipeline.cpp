@@ -23,8 +23,10 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
   if (p.repair) {
     // The image's components only when the repair has something to do (labelRepairNeeded).
     progress.beginStage("repair check");
-    const auto contacts = labelContactPairs(argmax);
-    LabelRepairCheck check = checkLabelRepair(r.mesh, contacts, progress);
+    LabelContactOracle oracle(argmax); // the image's contacts, scanned for only when needed
+    LabelRepairCheck check = checkLabelRepair(r.mesh, oracle, progress);
+    const auto& contacts = check.needed() ? oracle.all() : std::vector<std::pair<int32_t, int32_t>>{};
+    progress.endStage();
     if (!check.extraPieces) { // only around the vertices the check found (nothing when none)
       out.repair = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress);
       // What it relabelled may have cut a label in two: small pieces it cut off go to their
@@ -45,7 +47,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
       out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get());
       out.repair.relabelledVolume += local.relabelledVolume;
     }
-    refresh();
+    if (out.repair.relabelledVolume > 0) refresh();
   }
   const DomainBox box = domainBoxOf(bg.mesh, mats.grid().direction, mats.grid().origin);
   if (p.strip) {

@@ -46,6 +46,8 @@
 // Deterministic: the same result for any thread count. Stages: "repair contacts",
 // "repair connections", "repair edges", "repair fragments".
 #include <cstdint>
+#include <map>
+#include <mutex>
 #include <utility>
 #include <vector>
 
@@ -93,8 +95,9 @@ struct LabelRepairStats {
 // would): no two labels that never touch in the image (`contacts`, labelContactPairs) share a
 // vertex; no label touches itself along an edge (two groups of its tets at a vertex, joined through
 // faces, that share an edge); and every label's tets form one piece (joined through faces, found
-// through the groups at each vertex): a piece that could be joined or dissolved needs a second one. One pass over the tets plus the stars of the vertices where labels meet: no
-// face adjacency, no image components. LabelRepairStats::skipped is set when repairLabels finds so.
+// through the groups at each vertex): a piece that could be joined or dissolved needs a second one.
+// Two passes over the tets plus the stars of the vertices where labels meet: no face adjacency, no
+// image components (LabelRepairCheck.cpp). LabelRepairStats::skipped is set when repairLabels finds so.
 bool labelRepairNeeded(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
                        Progress& progress);
 // The same test, saying where: the vertices where labels that never touch meet or a label is
@@ -109,6 +112,26 @@ struct LabelRepairCheck {
 };
 LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
                                   Progress& progress);
+// Which labels touch in an image (labelContactPairs), asked pair by pair: a pair is looked for
+// first in the voxels around the place it is asked about (a mixed vertex of the mesh, on the
+// interface between the two labels, where they touch when they touch at all), and the whole
+// image is scanned, once, only for a pair not found there. So a check that finds nothing costs no
+// scan of the image. Thread-safe. `labels` must outlive it.
+class LabelContactOracle {
+public:
+  explicit LabelContactOracle(const LabelVolume& labels) : labels_(labels) {}
+  bool touch(int32_t a, int32_t b, const Vec3& near);
+  const std::vector<std::pair<int32_t, int32_t>>& all(); // labelContactPairs(labels), computed once
+  bool scanned() const { return scanned_; }
+
+private:
+  const LabelVolume& labels_;
+  std::mutex mutex_;
+  std::map<std::pair<int32_t, int32_t>, bool> known_;
+  std::vector<std::pair<int32_t, int32_t>> all_;
+  bool scanned_ = false;
+};
+LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& contacts, Progress& progress);
 // The repair when the check found no extra piece: the contacts, point contacts and edges steps on
 // the tets around the check's vertices only (no image components, no face adjacency of the whole
 // mesh). Nothing at all when the check found nothing.

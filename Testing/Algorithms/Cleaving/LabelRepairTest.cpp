@@ -6,7 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
@@ -14,6 +17,7 @@
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/Phantom.h"
 #include "Algorithms/Quality/Certificate.h"
+#include "Algorithms/Quality/LabelTopology.h"
 #include "Algorithms/Quality/MeshQuality.h"
 #include "Fixtures/VoxelMesh.h"
 #include "TestUtil.h"
@@ -104,6 +108,109 @@ TEST(LabelRepair, CleavedRandomVolumesLoseTheirForbiddenContactsAndKeepTheirGeom
     repaired += st.contactTets + st.connections + st.fragments > 0 ? 1 : 0;
   }
   EXPECT_GT(repaired, 5); // the cases do exercise the repair
+}
+
+// The check, against a plain reading of its definition: at every vertex, all pairs of its tets
+// (forbidden labels; face-joined groups; two groups of a label sharing an edge), and the label
+// pieces through faces. On cleaved random volumes (as they come, and with some tets relabelled
+// at random, which makes pieces and bad vertices of every kind), with the contacts of the image.
+TEST(LabelRepair, TheCheckFindsWhatAPlainReadingOfItsRulesFinds) {
+  NullProgress np;
+  int withExtra = 0, withBad = 0, clean = 0;
+  for (unsigned seed = 1; seed <= 30; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    // Every fifth a ball in a shell (nothing to repair, as a smooth organ).
+    auto vol = layeredVolume(seed);
+    if (seed % 5 == 0) {
+      auto ball = std::make_shared<LabelVolume>();
+      ball->allocate(vol->grid, 0);
+      const auto& d = vol->grid.dims;
+      for (int64_t k = 0; k < d[2]; ++k)
+        for (int64_t j = 0; j < d[1]; ++j)
+          for (int64_t i = 0; i < d[0]; ++i) {
+            const double r = std::hypot(i - d[0] / 2.0, j - d[1] / 2.0, k - d[2] / 2.0);
+            ball->at(i, j, k) = r < 3.0 + 0.2 * seed ? 2 : r < 6.0 ? 1 : 0;
+          }
+      vol = ball;
+    }
+    const LabelMaterials mats(vol, 0.5);
+    const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{1.5 + 0.5 * (seed % 3), 0.0}, np);
+    TetMesh mesh = cleave(bg, mats, CleaveParams{}, np).mesh;
+    std::mt19937 rng(seed);
+    if (seed % 5 != 0 && seed % 3 == 1) {
+      // Not only unmixed labels: relabel a few tets to labels of the volume.
+      std::vector<int32_t> used(mesh.materials.begin(), mesh.materials.end());
+      std::sort(used.begin(), used.end());
+      used.erase(std::unique(used.begin(), used.end()), used.end());
+      for (int i = 0; i < 1 + int(seed % 7); ++i)
+        mesh.materials[rng() % mesh.numTets()] = used[rng() % used.size()];
+    } else if (seed % 5 != 0 && seed % 3 == 2) {
+      repairLabels(mesh, mats, LabelRepairParams{}, np);
+    }
+    const auto contacts = labelContactPairs(*vol);
+    const LabelRepairCheck check = checkLabelRepair(mesh, contacts, np);
+
+    auto touch = [&](int32_t a, int32_t b) {
+      return a == b || std::binary_search(contacts.begin(), contacts.end(), std::pair{std::min(a, b), std::max(a, b)});
+    };
+    auto shared = [&](int32_t a, int32_t b) {
+      int n = 0;
+      for (int32_t x : mesh.tets[size_t(a)])
+        for (int32_t y : mesh.tets[size_t(b)]) n += x == y;
+      return n;
+    };
+    const VertexStars stars = vertexStars(mesh);
+    std::vector<int32_t> bad;
+    for (size_t v = 0; v + 1 < stars.offset.size(); ++v) {
+      const std::vector<int32_t> s(stars.tets.begin() + stars.offset[v], stars.tets.begin() + stars.offset[v + 1]);
+      const size_t k = s.size();
+      bool isBad = false, mixed = false;
+      DisjointSets groups(k);
+      for (size_t a = 0; a < k; ++a)
+        for (size_t b = a + 1; b < k; ++b) {
+          const int32_t la = mesh.materials[size_t(s[a])], lb = mesh.materials[size_t(s[b])];
+          mixed = mixed || la != lb;
+          isBad = isBad || !touch(la, lb);
+          if (la == lb && shared(s[a], s[b]) == 3) groups.unite(int32_t(a), int32_t(b));
+        }
+      for (size_t a = 0; a < k; ++a)
+        for (size_t b = a + 1; b < k; ++b)
+          if (mesh.materials[size_t(s[a])] == mesh.materials[size_t(s[b])] &&
+              groups.find(int32_t(a)) != groups.find(int32_t(b)) && shared(s[a], s[b]) >= 2)
+            isBad = true;
+      if (mixed && isBad) bad.push_back(int32_t(v));
+    }
+    EXPECT_EQ(check.badVertices, bad);
+
+    const std::vector<int32_t> nb = tetFaceNeighbours(mesh, np);
+    DisjointSets pieces = sameLabelPieces(mesh, nb);
+    std::map<int32_t, std::vector<int32_t>> tetsOf; // piece root (its smallest tet) -> tets
+    for (size_t t = 0; t < mesh.numTets(); ++t) tetsOf[pieces.find(int32_t(t))].push_back(int32_t(t));
+    std::map<int32_t, int32_t> largest; // label -> root
+    for (const auto& [root, tets] : tetsOf) {
+      auto [it, fresh] = largest.try_emplace(mesh.materials[size_t(root)], root);
+      if (!fresh && tets.size() > tetsOf[it->second].size()) it->second = root;
+    }
+    std::vector<std::vector<int32_t>> small;
+    bool extra = false, large = false;
+    for (const auto& [root, tets] : tetsOf) {
+      if (largest[mesh.materials[size_t(root)]] == root) continue;
+      extra = true;
+      if (tets.size() <= 16) small.push_back(tets);
+      else large = true;
+    }
+    EXPECT_EQ(check.extraPieces, extra);
+    EXPECT_EQ(check.largeExtraPieces, large);
+    EXPECT_EQ(check.smallPieces, small);
+    EXPECT_EQ(check.needed(), labelRepairNeeded(mesh, contacts, np));
+    withExtra += extra;
+    withBad += !bad.empty();
+    clean += !extra && bad.empty();
+  }
+  // The cases cover each answer.
+  EXPECT_GE(withExtra, 5);
+  EXPECT_GE(withBad, 5);
+  EXPECT_GE(clean, 3);
 }
 
 TEST(LabelRepair, AStrayIslandGoesBackAndAGenuineVoxelStays) {
