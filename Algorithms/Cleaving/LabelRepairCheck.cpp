@@ -10,6 +10,7 @@
 // - each label is then in one piece when all its elements have one root. Only when some label is
 //   not are the tets of the pieces counted (to list the small ones).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <atomic>
 #include <limits>
@@ -125,6 +126,12 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
         if (slot[size_t(q[0])] >= 0 || slot[size_t(q[1])] >= 0 || slot[size_t(q[2])] >= 0 || slot[size_t(q[3])] >= 0) {
           mine.push_back(int32_t(t));
         } else {
+          const int32_t* par = sets.parent.data(); // most tets join vertices joined already
+          const int32_t p0 = std::atomic_ref<const int32_t>(par[q[0]]).load(std::memory_order_relaxed);
+          if (std::atomic_ref<const int32_t>(par[q[1]]).load(std::memory_order_relaxed) == p0 &&
+              std::atomic_ref<const int32_t>(par[q[2]]).load(std::memory_order_relaxed) == p0 &&
+              std::atomic_ref<const int32_t>(par[q[3]]).load(std::memory_order_relaxed) == p0)
+            continue;
           const int32_t r = sets.unite(sets.unite(q[0], q[1]), q[2]);
           sets.unite(r, q[3]);
         }
@@ -141,15 +148,21 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
   if (np + entries > std::numeric_limits<int32_t>::max())
     throw InputError("label repair check: the mesh has too many vertices and star entries (" +
                      std::to_string(np + entries) + ") for 32-bit indices");
-  std::vector<int32_t> star(static_cast<size_t>(entries));
   std::vector<int64_t> entryOf(4 * band.size(), -1); // per band tet and corner: its star entry
+  // The stars: their tets' vertices and labels, copied in star order (read one star after
+  // another, not scattered over the mesh).
+  struct StarTet {
+    std::array<int32_t, 4> v;
+    int32_t label;
+  };
+  std::vector<StarTet> starTet(static_cast<size_t>(entries));
   {
     std::vector<int64_t> fill(offset.begin(), offset.end() - 1);
     for (size_t b = 0; b < band.size(); ++b)
       for (int c = 0; c < 4; ++c)
         if (const int32_t s = slot[size_t(tets[size_t(band[b])][size_t(c)])]; s >= 0) {
           const int64_t e = fill[size_t(s)]++;
-          star[size_t(e)] = band[b];
+          starTet[size_t(e)] = {tets[size_t(band[b])], mats[size_t(band[b])]};
           entryOf[4 * b + size_t(c)] = e;
         }
   }
@@ -161,7 +174,6 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
   std::vector<int32_t> group(static_cast<size_t>(entries)); // per entry: the star entry at its group's root
 #pragma omp parallel
   {
-    std::vector<int32_t> local(size_t(np), -1); // link vertex -> its number at this v
     std::vector<int32_t> parent, labels, link, tri, head;
     struct Item { int32_t key, value, next; }; // per link vertex, lists of (other vertex, tet) or (label, group)
     std::vector<Item> pool;
@@ -170,9 +182,9 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
     for (int64_t m = 0; m < nm; ++m) {
       const int64_t o = offset[size_t(m)];
       const int32_t k = int32_t(offset[size_t(m) + 1] - o);
-      const int32_t* s0 = star.data() + o;
       const int32_t v = mixedList[size_t(m)];
-      auto label = [&](int32_t a) { return mats[size_t(s0[a])]; };
+      const StarTet* t0 = starTet.data() + o;
+      auto label = [&](int32_t a) { return t0[a].label; };
       bool bad = false;
       labels.clear();
       for (int32_t a = 0; a < k; ++a)
@@ -184,13 +196,11 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
       tri.resize(3 * size_t(k));
       for (int32_t a = 0; a < k; ++a) {
         int n = 0;
-        for (int32_t x : tets[size_t(s0[a])]) {
+        for (int32_t x : t0[a].v) {
           if (x == v) continue;
-          int32_t& l = local[size_t(x)];
-          if (l < 0) {
-            l = int32_t(link.size());
-            link.push_back(x);
-          }
+          // A link has a few dozen vertices: a search in it stays in the cache.
+          const int32_t l = int32_t(std::find(link.begin(), link.end(), x) - link.begin());
+          if (l == int32_t(link.size())) link.push_back(x);
           tri[3 * size_t(a) + size_t(n++)] = l;
         }
       }
@@ -221,9 +231,11 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
       // label there touch each other along the edge, which the edges step closes. Groups that
       // share only v (a pinch at a point) are left: no step changes them, and the certificate
       // only counts them.
+      int32_t groups = 0; // with one group per label (most vertices), no label meets itself
+      for (int32_t a = 0; a < k; ++a) groups += parent[size_t(a)] == a;
       head.assign(link.size(), -1);
       pool.clear();
-      for (int32_t a = 0; a < k && !bad; ++a) {
+      for (int32_t a = 0; a < k && !bad && groups > int32_t(labels.size()); ++a) {
         const int32_t L = label(a), g = find(a);
         for (int e = 0; e < 3 && !bad; ++e) {
           const int32_t i = tri[3 * size_t(a) + size_t(e)];
@@ -237,7 +249,6 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
           }
         }
       }
-      for (int32_t x : link) local[size_t(x)] = -1;
       for (int32_t a = 0; a < k; ++a) group[size_t(o + a)] = int32_t(o + find(a));
       if (bad) badFlag[size_t(m)] = 1;
     }
@@ -268,7 +279,7 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
   for (int64_t v = 0; v < np && !check.extraPieces; ++v)
     if (!mixed[size_t(v)] && first[size_t(v)] != kUnset) see(first[size_t(v)], int32_t(v));
   for (int64_t e = 0; e < entries && !check.extraPieces; ++e)
-    if (group[size_t(e)] == e) see(mats[size_t(star[size_t(e)])], int32_t(np + e));
+    if (group[size_t(e)] == e) see(starTet[size_t(e)].label, int32_t(np + e));
   if (!check.extraPieces) return check;
   // Pieces per label: the largest stays; the others are extra (their tets listed when small).
   std::vector<int32_t> pieceOf(static_cast<size_t>(nt)), size(sets.parent.size(), 0), low(sets.parent.size(), -1);
@@ -318,11 +329,13 @@ LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& conta
   return checkWith(
       mesh,
       [&] {
-        return [&, seen = std::map<std::pair<int32_t, int32_t>, bool>{}](int32_t a, int32_t b, int32_t v) mutable {
-          const std::pair key{std::min(a, b), std::max(a, b)};
-          auto it = seen.find(key);
-          if (it == seen.end()) it = seen.emplace(key, contacts.touch(a, b, mesh.points[size_t(v)])).first;
-          return it->second;
+        // The pairs this thread has asked about (a few: a search stays in the cache).
+        return [&, seen = std::vector<std::pair<uint64_t, bool>>{}](int32_t a, int32_t b, int32_t v) mutable {
+          const uint64_t key = labelPairKey(a, b);
+          for (const auto& [k, answer] : seen)
+            if (k == key) return answer;
+          seen.emplace_back(key, contacts.touch(a, b, mesh.points[size_t(v)]));
+          return seen.back().second;
         };
       },
       progress);
