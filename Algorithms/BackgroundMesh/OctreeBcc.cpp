@@ -173,6 +173,7 @@ namespace {
 // its corners, and the 6 from its centre to the centres of same-size neighbours (to the face centre
 // on the box), as if every neighbour were of its size.
 bool leafMissesMaterial(const SizingOctree& tree, uint64_t key, const GridGeometry& grid, const EdgeTopology& topo) {
+  if (topo.nothingMisses()) return false;
   const int L = tree.finestLevel;
   const auto idx = keyIndex(key);
   const int64_t s = int64_t(1) << (L - keyLevel(key));
@@ -182,6 +183,15 @@ bool leafMissesMaterial(const SizingOctree& tree, uint64_t key, const GridGeomet
     corner[q] = at(2 * s * (idx[0] + (q & 1)), 2 * s * (idx[1] + ((q >> 1) & 1)), 2 * s * (idx[2] + ((q >> 2) & 1)));
   const std::array<int64_t, 3> c{2 * s * idx[0] + s, 2 * s * idx[1] + s, 2 * s * idx[2] + s};
   const Vec3 centre = at(c[0], c[1], c[2]);
+  {
+    // Every edge below lies within the cell grown by half a cell on each side (the neighbours'
+    // centres): when one label covers that, none misses anything.
+    Vec3 reach[8];
+    for (int q = 0; q < 8; ++q)
+      reach[q] = at(2 * s * idx[0] + s * (4 * (q & 1) - 1), 2 * s * idx[1] + s * (4 * ((q >> 1) & 1) - 1),
+                    2 * s * idx[2] + s * (4 * ((q >> 2) & 1) - 1));
+    if (topo.uniformOver(reach, 8)) return false;
+  }
   for (int q = 0; q < 8; ++q)
     if (topo.missesMaterial(centre, corner[q])) return true;
   for (int q = 0; q < 8; ++q)
@@ -821,7 +831,8 @@ OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& 
   }
   const double thinCell = thinCellSize(p, thin);
   tree.thinLevel = levelFor(rootLongest, thinCell);
-  if (tree.thinLevel == 0) { // cells already as fine as asked: the regular lattice
+  if (tree.thinLevel == 0 || thin.nothingMisses()) { // cells already as fine as asked, or nothing
+    // to find (EdgeTopology::nothingMisses): the regular lattice
     result.background = generateRegularBcc(grid, bcc, progress);
     return result;
   }

@@ -17,12 +17,20 @@ EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(label
     NullProgress np;
     coreless_ = corelessVoxels(labels, np);
   }
+  // Labels in the image: those that touch another (in a box of voxels, every label does when
+  // there are two or more), else one.
+  std::vector<int32_t> present;
+  for (const auto& [a, b] : contacts_) present.insert(present.end(), {a, b});
+  std::sort(present.begin(), present.end());
+  present.erase(std::unique(present.begin(), present.end()), present.end());
+  nothingMisses_ = mode == Mode::Separating && present.size() <= 2 && coreless_.empty();
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) toIndex_[r][c] = g.direction[c][r] / g.spacing[r];
   voxelSize_ = std::max({g.spacing[0], g.spacing[1], g.spacing[2]});
   for (int a = 0; a < 3; ++a) blocks_[size_t(a)] = (g.dims[size_t(a)] + kBlock - 1) / kBlock;
   const int64_t nb = blocks_[0] * blocks_[1] * blocks_[2];
   uniform_.assign(size_t(nb), 0);
+  if (nothingMisses_) return; // no segment needs the blocks
   if (!coreless_.empty()) corelessBlock_.assign(size_t(nb), 0);
   const auto& d = g.dims;
 #pragma omp parallel for schedule(dynamic, 64)
@@ -68,6 +76,26 @@ bool EdgeTopology::anyBlock(const std::vector<uint8_t>& flags, const int64_t lo[
   return false;
 }
 
+bool EdgeTopology::uniformOver(const Vec3* points, int n) const {
+  const auto& dims = labels_.grid.dims;
+  double mn[3] = {1e300, 1e300, 1e300}, mx[3] = {-1e300, -1e300, -1e300};
+  for (int q = 0; q < n; ++q) {
+    const Vec3 u = index(points[q]);
+    for (int x = 0; x < 3; ++x) {
+      mn[x] = std::min(mn[x], u[x]);
+      mx[x] = std::max(mx[x], u[x]);
+    }
+  }
+  int64_t lo[3], hi[3]; // as missesMaterial widens a segment's voxel range
+  for (int x = 0; x < 3; ++x) {
+    if (!(mn[x] <= mx[x])) return false; // NaN, or no points
+    lo[x] = std::clamp<int64_t>(int64_t(std::floor(std::max(mn[x], -1e15) + 0.5 - kTieWidth)), 0, dims[size_t(x)] - 1);
+    hi[x] = std::clamp<int64_t>(int64_t(std::floor(std::min(mx[x], 1e15) + 0.5 + kTieWidth)), 0, dims[size_t(x)] - 1);
+  }
+  // Uniform blocks next to each other share their halos, so all of them carry the same label.
+  return !anyBlock(uniform_, lo, hi, 0);
+}
+
 bool EdgeTopology::touchNear(int32_t A, int32_t B, const int64_t lo[3], const int64_t hi[3]) const {
   const auto& d = labels_.grid.dims;
   int64_t b0[3], b1[3];
@@ -102,6 +130,7 @@ struct Touch {
 } // namespace
 
 bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
+  if (nothingMisses_) return false;
   const Vec3 a = index(pa), b = index(pb);
   const auto& dims = labels_.grid.dims;
   auto voxelAt = [&](const Vec3& u) {
@@ -233,11 +262,15 @@ std::vector<uint8_t> tetsMissingMaterials(const TetMesh& mesh, const EdgeTopolog
   static constexpr int kEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
   const int64_t n = int64_t(mesh.numTets());
   std::vector<uint8_t> out(size_t(n), 0);
+  if (topology.nothingMisses()) return out;
   LoopCancel cancel(progress);
 #pragma omp parallel for schedule(dynamic, 4096)
   for (int64_t t = 0; t < n; ++t) {
     if (cancel.skip(t) || (only && !(*only)[size_t(t)])) continue;
     const auto& q = mesh.tets[size_t(t)];
+    const Vec3 corners[4] = {mesh.points[size_t(q[0])], mesh.points[size_t(q[1])], mesh.points[size_t(q[2])],
+                             mesh.points[size_t(q[3])]};
+    if (topology.uniformOver(corners, 4)) continue; // one label around: no edge misses anything
     for (const auto& e : kEdge)
       if (topology.missesMaterial(mesh.points[size_t(q[e[0]])], mesh.points[size_t(q[e[1]])])) {
         out[size_t(t)] = 1;

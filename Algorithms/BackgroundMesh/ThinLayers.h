@@ -45,6 +45,15 @@ public:
   explicit EdgeTopology(const LabelVolume& labels, Mode mode = Mode::All);
   // a, b physical (mm). Outside the grid the boundary voxels continue (as the materials do).
   bool missesMaterial(const Vec3& a, const Vec3& b) const;
+  // Whether the voxels around the points (physical, mm; their bounding box in the grid) are known
+  // to carry one label: then no segment between two of them misses a material (in either mode),
+  // and a caller with many such segments (the edges of a cell or a tet) need not test them one by
+  // one. (Not known, and false, when nothingMisses.)
+  bool uniformOver(const Vec3* points, int n) const;
+  // Whether no segment can miss a material: Separating on an image of at most two labels and no
+  // component without a core (a segment between the two labels passes a face between them in
+  // the box it crosses, and nothing coreless is there to lose). A smooth organ in its background.
+  bool nothingMisses() const { return nothingMisses_; }
   // Largest voxel spacing (mm).
   double voxelSize() const { return voxelSize_; }
   const GridGeometry& grid() const { return labels_.grid; }
@@ -69,6 +78,7 @@ private:
   // block (with its halo), 1 when it holds such a voxel.
   std::vector<uint8_t> coreless_, corelessBlock_;
   Vec3 index(const Vec3& p) const;
+  bool nothingMisses_ = false;
 };
 
 // Per tet of `mesh`: 1 when one of its six edges misses a material. Both cores; the result does

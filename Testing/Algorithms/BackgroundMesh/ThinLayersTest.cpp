@@ -90,6 +90,37 @@ TEST(ThinLayers, SegmentsAcrossASheetMissItAndOthersDoNot) {
   EXPECT_FALSE(near.missesMaterial({0.2, 19, 19}, {19.8, 6, 6}));
 }
 
+// uniformOver, the shortcut for all the segments between some points: when it says one label,
+// no segment between them misses anything (both modes); on the random shells it says so for the
+// points far from the layers and not for those across them.
+TEST(ThinLayers, OneLabelAroundSomePointsMeansNoSegmentBetweenThemMisses) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-2.0, 26.0), step(-3.0, 3.0);
+  int uniform = 0, mixed = 0;
+  for (int c = 0; c < 6; ++c) {
+    const LabelVolume v = shell(24, 4.0 + c);
+    for (const auto mode : {EdgeTopology::Mode::All, EdgeTopology::Mode::Separating}) {
+      const EdgeTopology t(v, mode);
+      for (int trial = 0; trial < 400; ++trial) {
+        Vec3 p[4];
+        p[0] = {u(rng), u(rng), u(rng)};
+        for (int q = 1; q < 4; ++q) p[q] = p[0] + Vec3{step(rng), step(rng), step(rng)};
+        bool anyMiss = false;
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b) anyMiss = anyMiss || t.missesMaterial(p[a], p[b]);
+        if (t.uniformOver(p, 4)) {
+          ++uniform;
+          EXPECT_FALSE(anyMiss) << "case " << c << " trial " << trial;
+        } else {
+          mixed += anyMiss ? 1 : 0;
+        }
+      }
+    }
+  }
+  EXPECT_GT(uniform, 1000);
+  EXPECT_GT(mixed, 50);
+}
+
 // Faces between labels 0 and 2 of a cleaved mesh: where the shell between them went missing.
 double contactArea(const TetMesh& m) { return test::contactArea(m, 0, 2); }
 
@@ -129,6 +160,12 @@ TEST(ThinLayers, NothingThinIsTheRegularLatticeItself) {
   const LabelVolume v = test::nestedBalls(30, 0.0, 10.0);
   const GridGeometry& g = v.grid;
   const EdgeTopology t(v, EdgeTopology::Mode::Separating);
+  // Known before any segment is tested (the stage costs nothing then); not with a third label,
+  // a coreless sheet, or in mode All.
+  EXPECT_TRUE(t.nothingMisses());
+  EXPECT_FALSE(EdgeTopology(test::nestedBalls(30, 5.0, 10.0), EdgeTopology::Mode::Separating).nothingMisses());
+  EXPECT_FALSE(EdgeTopology(sheet(20, 10), EdgeTopology::Mode::Separating).nothingMisses());
+  EXPECT_FALSE(EdgeTopology(v, EdgeTopology::Mode::All).nothingMisses());
   NullProgress np;
   const OctreeBccResult r = generateThinLayerBcc(g, BccParams{3.0, 0.0}, OctreeBccParams{}, t, np);
   const BackgroundMesh regular = generateRegularBcc(g, BccParams{3.0, 0.0}, np);
