@@ -126,12 +126,10 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
         if (slot[size_t(q[0])] >= 0 || slot[size_t(q[1])] >= 0 || slot[size_t(q[2])] >= 0 || slot[size_t(q[3])] >= 0) {
           mine.push_back(int32_t(t));
         } else {
-          const int32_t* par = sets.parent.data(); // most tets join vertices joined already
-          const int32_t p0 = std::atomic_ref<const int32_t>(par[q[0]]).load(std::memory_order_relaxed);
-          if (std::atomic_ref<const int32_t>(par[q[1]]).load(std::memory_order_relaxed) == p0 &&
-              std::atomic_ref<const int32_t>(par[q[2]]).load(std::memory_order_relaxed) == p0 &&
-              std::atomic_ref<const int32_t>(par[q[3]]).load(std::memory_order_relaxed) == p0)
-            continue;
+          int32_t* par = sets.parent.data(); // most tets join vertices joined already
+          auto parentOf = [&](int32_t v) { return std::atomic_ref<int32_t>(par[v]).load(std::memory_order_relaxed); };
+          const int32_t p0 = parentOf(q[0]);
+          if (parentOf(q[1]) == p0 && parentOf(q[2]) == p0 && parentOf(q[3]) == p0) continue;
           const int32_t r = sets.unite(sets.unite(q[0], q[1]), q[2]);
           sets.unite(r, q[3]);
         }
