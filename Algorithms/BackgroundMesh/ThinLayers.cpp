@@ -76,8 +76,15 @@ bool EdgeTopology::anyBlock(const std::vector<uint8_t>& flags, const int64_t lo[
   return false;
 }
 
-bool EdgeTopology::uniformOver(const Vec3* points, int n) const {
+void EdgeTopology::voxelBox(const double mn[3], const double mx[3], int64_t lo[3], int64_t hi[3]) const {
   const auto& dims = labels_.grid.dims;
+  for (int x = 0; x < 3; ++x) {
+    lo[x] = std::clamp<int64_t>(int64_t(std::floor(std::max(mn[x], -1e15) + 0.5 - kTieWidth)), 0, dims[size_t(x)] - 1);
+    hi[x] = std::clamp<int64_t>(int64_t(std::floor(std::min(mx[x], 1e15) + 0.5 + kTieWidth)), 0, dims[size_t(x)] - 1);
+  }
+}
+
+bool EdgeTopology::uniformOver(const Vec3* points, int n) const {
   double mn[3] = {1e300, 1e300, 1e300}, mx[3] = {-1e300, -1e300, -1e300};
   for (int q = 0; q < n; ++q) {
     const Vec3 u = index(points[q]);
@@ -86,12 +93,10 @@ bool EdgeTopology::uniformOver(const Vec3* points, int n) const {
       mx[x] = std::max(mx[x], u[x]);
     }
   }
-  int64_t lo[3], hi[3]; // as missesMaterial widens a segment's voxel range
-  for (int x = 0; x < 3; ++x) {
+  for (int x = 0; x < 3; ++x)
     if (!(mn[x] <= mx[x])) return false; // NaN, or no points
-    lo[x] = std::clamp<int64_t>(int64_t(std::floor(std::max(mn[x], -1e15) + 0.5 - kTieWidth)), 0, dims[size_t(x)] - 1);
-    hi[x] = std::clamp<int64_t>(int64_t(std::floor(std::min(mx[x], 1e15) + 0.5 + kTieWidth)), 0, dims[size_t(x)] - 1);
-  }
+  int64_t lo[3], hi[3]; // as missesMaterial widens a segment's voxel range
+  voxelBox(mn, mx, lo, hi);
   // Uniform blocks next to each other share their halos, so all of them carry the same label.
   return !anyBlock(uniform_, lo, hi, 0);
 }
@@ -106,19 +111,7 @@ bool EdgeTopology::touchNear(int32_t A, int32_t B, const int64_t lo[3], const in
     count *= b1[x] - b0[x] + 1;
   }
   if (count > kNearVoxels) return true; // a long edge: the image-wide answer (they touch)
-  for (int64_t k = b0[2]; k <= b1[2]; ++k)
-    for (int64_t j = b0[1]; j <= b1[1]; ++j) {
-      const int32_t* row = labels_.data.data() + labels_.index(0, j, k);
-      const int32_t* up = j < b1[1] ? row + d[0] : nullptr;
-      const int32_t* above = k < b1[2] ? row + d[0] * d[1] : nullptr;
-      for (int64_t i = b0[0]; i <= b1[0]; ++i) {
-        const int32_t L = row[i];
-        if (L != A && L != B) continue;
-        const int32_t other = L == A ? B : A;
-        if ((i < b1[0] && row[i + 1] == other) || (up && up[i] == other) || (above && above[i] == other)) return true;
-      }
-    }
-  return false;
+  return labelsTouchInBox(labels_, A, B, b0, b1);
 }
 
 namespace {
@@ -141,10 +134,10 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
   constexpr double eps = kTieWidth;
   // Voxel range touched (clamped: outside, the boundary voxels continue).
   int64_t lo[3], hi[3];
-  for (int x = 0; x < 3; ++x) {
-    const double mn = std::min(a[x], b[x]), mx = std::max(a[x], b[x]);
-    lo[x] = std::clamp<int64_t>(int64_t(std::floor(mn + 0.5 - eps)), 0, dims[size_t(x)] - 1);
-    hi[x] = std::clamp<int64_t>(int64_t(std::floor(mx + 0.5 + eps)), 0, dims[size_t(x)] - 1);
+  {
+    const double mn[3] = {std::min(a[0], b[0]), std::min(a[1], b[1]), std::min(a[2], b[2])};
+    const double mx[3] = {std::max(a[0], b[0]), std::max(a[1], b[1]), std::max(a[2], b[2])};
+    voxelBox(mn, mx, lo, hi);
   }
   if (mode_ == Mode::Separating) {
     const int32_t A = voxelAt(a), B = voxelAt(b);

@@ -65,6 +65,8 @@ private:
   std::vector<std::pair<int32_t, int32_t>> contacts_; // label pairs (a < b) on face-adjacent voxels, sorted
   static constexpr int64_t kNearVoxels = 4096;
   bool touch(int32_t a, int32_t b) const;
+  // The voxels (clamped to the grid) over the index-space box [mn, mx] widened by kTieWidth.
+  void voxelBox(const double mn[3], const double mx[3], int64_t lo[3], int64_t hi[3]) const;
   // Whether a block over the voxel box [lo, hi] has flags[block] == value.
   bool anyBlock(const std::vector<uint8_t>& flags, const int64_t lo[3], const int64_t hi[3], uint8_t value) const;
   // Whether A and B are face-adjacent somewhere in the voxel box [lo, hi] widened by one voxel.

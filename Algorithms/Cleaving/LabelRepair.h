@@ -122,9 +122,9 @@ public:
   explicit LabelContactOracle(const LabelVolume& labels) : labels_(labels) {}
   bool touch(int32_t a, int32_t b, const Vec3& near);
   const std::vector<std::pair<int32_t, int32_t>>& all(); // labelContactPairs(labels), computed once
-  bool scanned() const { return scanned_; }
 
 private:
+  const std::vector<std::pair<int32_t, int32_t>>& scan(); // all(), with mutex_ held
   const LabelVolume& labels_;
   std::mutex mutex_;
   std::map<std::pair<int32_t, int32_t>, bool> known_;

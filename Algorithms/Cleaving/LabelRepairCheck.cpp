@@ -343,8 +343,8 @@ bool LabelContactOracle::touch(int32_t a, int32_t b, const Vec3& near) {
   const std::pair key{std::min(a, b), std::max(a, b)};
   std::lock_guard lock(mutex_);
   if (const auto it = known_.find(key); it != known_.end()) return it->second;
-  bool found = false;
-  // The voxels within 2 of the nearest voxel centre (index coordinates put centres at integers).
+  // The voxels within 2 of the nearest voxel centre (index coordinates put centres at integers);
+  // not there: the whole image.
   const Vec3 c = IndexFrame{labels_.grid}.toIndex(near);
   const auto& d = labels_.grid.dims;
   int64_t lo[3], hi[3];
@@ -353,33 +353,22 @@ bool LabelContactOracle::touch(int32_t a, int32_t b, const Vec3& near) {
     lo[x] = std::clamp<int64_t>(int64_t(std::isfinite(r) ? r : 0) - 2, 0, d[x] - 1);
     hi[x] = std::clamp<int64_t>(int64_t(std::isfinite(r) ? r : 0) + 2, 0, d[x] - 1);
   }
-  for (int64_t k = lo[2]; k <= hi[2] && !found; ++k)
-    for (int64_t j = lo[1]; j <= hi[1] && !found; ++j)
-      for (int64_t i = lo[0]; i <= hi[0] && !found; ++i) {
-        const int32_t here = labels_.at(i, j, k);
-        if (here != a && here != b) continue;
-        const int32_t other = here == a ? b : a;
-        found = (i < hi[0] && labels_.at(i + 1, j, k) == other) || (j < hi[1] && labels_.at(i, j + 1, k) == other) ||
-                (k < hi[2] && labels_.at(i, j, k + 1) == other);
-      }
-  if (!found) { // not here: the whole image
-    if (!scanned_) {
-      all_ = labelContactPairs(labels_);
-      scanned_ = true;
-    }
-    found = std::binary_search(all_.begin(), all_.end(), key);
-  }
+  const bool found = labelsTouchInBox(labels_, a, b, lo, hi) || std::binary_search(scan().begin(), scan().end(), key);
   known_.emplace(key, found);
   return found;
 }
 
-const std::vector<std::pair<int32_t, int32_t>>& LabelContactOracle::all() {
-  std::lock_guard lock(mutex_);
+const std::vector<std::pair<int32_t, int32_t>>& LabelContactOracle::scan() {
   if (!scanned_) {
     all_ = labelContactPairs(labels_);
     scanned_ = true;
   }
   return all_;
+}
+
+const std::vector<std::pair<int32_t, int32_t>>& LabelContactOracle::all() {
+  std::lock_guard lock(mutex_);
+  return scan();
 }
 
 bool labelRepairNeeded(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,

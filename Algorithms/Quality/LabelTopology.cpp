@@ -155,6 +155,23 @@ std::vector<std::pair<int32_t, int32_t>> labelContactPairs(const LabelVolume& v)
   return pairs;
 }
 
+bool labelsTouchInBox(const LabelVolume& v, int32_t a, int32_t b, const int64_t lo[3], const int64_t hi[3]) {
+  const auto& d = v.grid.dims;
+  for (int64_t k = lo[2]; k <= hi[2]; ++k)
+    for (int64_t j = lo[1]; j <= hi[1]; ++j) {
+      const int32_t* row = v.data.data() + v.index(0, j, k);
+      const int32_t* up = j < hi[1] ? row + d[0] : nullptr;
+      const int32_t* above = k < hi[2] ? row + d[0] * d[1] : nullptr;
+      for (int64_t i = lo[0]; i <= hi[0]; ++i) {
+        const int32_t L = row[i];
+        if (L != a && L != b) continue;
+        const int32_t other = L == a ? b : a;
+        if ((i < hi[0] && row[i + 1] == other) || (up && up[i] == other) || (above && above[i] == other)) return true;
+      }
+    }
+  return false;
+}
+
 namespace {
 // A face in the bucket of its smallest vertex: the other two vertices and 4 * tet + face.
 struct BucketFace {

@@ -131,6 +131,9 @@ LabelImageTopology analyzeLabelImage(const LabelVolume& v, Progress& progress);
 // Just the label pairs (a < b) that touch across a voxel face, sorted: one parallel pass, no
 // components (what the label repair's quick check and the thin-layer test need).
 std::vector<std::pair<int32_t, int32_t>> labelContactPairs(const LabelVolume& v);
+// Whether labels a and b (a != b) are face-adjacent inside the voxel box [lo, hi] (inclusive,
+// within the grid): both voxels of the pair in the box.
+bool labelsTouchInBox(const LabelVolume& v, int32_t a, int32_t b, const int64_t lo[3], const int64_t hi[3]);
 
 // Continuous voxel-index coordinates of a physical point.
 struct IndexFrame {
