@@ -1,7 +1,8 @@
 #pragma once
 // Tetrahedral mesh files. Format by extension (or given explicitly):
-//   .vtu        VTK XML unstructured grid (through VTK): material as int32 cell data "material",
-//               point/cell fields as point/cell data arrays (components kept)
+//   .vtu        VTK XML unstructured grid (own writer, VtuWriter.h; read through VTK): material
+//               as int32 cell data "material", point/cell fields as point/cell data arrays
+//               (components kept)
 //   .vtk        legacy VTK unstructured grid (through VTK), same arrays
 //   .msh        Gmsh MSH 4.1 ASCII: one volume entity + physical group per material
 //               (physical tag = material label; label <= 0 mapped and named "material_<label>")

@@ -5,7 +5,6 @@
 #include <ostream>
 #include <streambuf>
 
-#include <vtkErrorCode.h>
 #include <vtkObjectFactory.h>
 
 #include "Algorithms/Core/Progress.h"
@@ -70,17 +69,7 @@ private:
 
 } // namespace
 
-vtkStandardNewMacro(CancellableVtuWriter);
 vtkStandardNewMacro(CancellableLegacyVtkWriter);
-
-void CancellableVtuWriter::UpdateProgressDiscrete(float progress) {
-  if (moduleCancelled()) {
-    // The writer stops at its next error-code check; the failed stream stops the block loop.
-    SetErrorCode(vtkErrorCode::OutOfDiskSpaceError);
-    if (Stream) Stream->setstate(std::ios::badbit);
-  }
-  vtkXMLUnstructuredGridWriter::UpdateProgressDiscrete(progress);
-}
 
 ostream* CancellableLegacyVtkWriter::OpenVTKFile() {
   ostream* file = vtkUnstructuredGridWriter::OpenVTKFile();

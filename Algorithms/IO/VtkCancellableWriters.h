@@ -1,26 +1,13 @@
 #pragma once
-// VTK's unstructured-grid writers, made to stop within a fraction of a second when the running
-// module is cancelled (README "Reliability", cancellation). VTK's writers have no cancellation of
-// their own, but both stop as soon as their output fails: the XML writer checks its error code
-// between compressed blocks and arrays, the legacy writer checks its stream after every array.
-// These subclasses make the output fail once currentProgress() (Core/Progress.h) reports a
-// cancellation; the caller then sees a failed Write() and checks the progress to throw Cancelled
-// instead of reporting a write error.
+// VTK's legacy unstructured-grid writer, made to stop within a fraction of a second when the
+// running module is cancelled (README "Reliability", cancellation). VTK's writers have no
+// cancellation of their own, but the legacy writer checks its stream after every array. This
+// subclass makes the output fail once currentProgress() (Core/Progress.h) reports a cancellation;
+// the caller then sees a failed Write() and checks the progress to throw Cancelled instead of
+// reporting a write error. (.vtu files are written by our own writer, VtuWriter.h.)
 #include <vtkUnstructuredGridWriter.h>
-#include <vtkXMLUnstructuredGridWriter.h>
 
 namespace tetflow {
-
-class CancellableVtuWriter : public vtkXMLUnstructuredGridWriter {
-public:
-  static CancellableVtuWriter* New();
-  vtkTypeMacro(CancellableVtuWriter, vtkXMLUnstructuredGridWriter);
-
-protected:
-  CancellableVtuWriter() = default;
-  // Called after every compressed block (32 KiB) and array.
-  void UpdateProgressDiscrete(float progress) override;
-};
 
 class CancellableLegacyVtkWriter : public vtkUnstructuredGridWriter {
 public:

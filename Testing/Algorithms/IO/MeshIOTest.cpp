@@ -1,7 +1,9 @@
 // Tests for Algorithms/IO/MeshIO: round trips (.vtu, .vtk, TetGen), the Gmsh 4.1 writer checked by
-// an independent parser, and broken / unwritable inputs.
+// an independent parser, the .vtu writer against VTK's reader and writer, and broken /
+// unwritable inputs.
 #include "Algorithms/IO/MeshIO.h"
 #include "Algorithms/IO/VtkCancellableWriters.h"
+#include "Algorithms/IO/VtuWriter.h"
 
 #include "Algorithms/Core/Progress.h"
 
@@ -9,8 +11,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -22,12 +27,20 @@
 #include <string>
 #include <vector>
 
+#include <sys/resource.h>
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
 #include <vtkCellType.h>
+#include <vtkDoubleArray.h>
 #include <vtkFloatArray.h>
+#include <vtkIntArray.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkSmartPointer.h>
+#include <vtkTypeInt32Array.h>
+#include <vtkTypeInt64Array.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkUnstructuredGridWriter.h>
 #include <vtkXMLUnstructuredGridWriter.h>
@@ -533,6 +546,337 @@ TEST(MeshIOVtk, ReservedAndEmptyFieldNames) {
   e.pointFields[""] = Field{1, std::vector<double>(e.numPoints(), 1.0)};
   EXPECT_THROW_MSG(writeMesh(dir.file("e.vtk"), e), InputError, "e.vtk", "empty name");
   EXPECT_TRUE(dirEntries(dir.path()).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// The .vtu writer (VtuWriter.h): read back by VTK's reader, and against VTK's own writer
+// ---------------------------------------------------------------------------------------------
+
+// Random tets over random points (the file format does not need a conforming mesh), positively
+// oriented or flat (readMesh keeps both as they are), labels -3..12, point and
+// cell fields with 1 and 3 components of random (incompressible) doubles.
+TetMesh randomTets(size_t np, size_t nt, unsigned seed) {
+  TetMesh m;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-50, 50);
+  for (size_t i = 0; i < np; ++i) m.points.push_back({u(rng), u(rng), u(rng)});
+  for (size_t t = 0; t < nt; ++t) {
+    TetMesh::Tet tet{};
+    for (int32_t& v : tet) v = static_cast<int32_t>(rng() % np);
+    m.tets.push_back(tet);
+    m.materials.push_back(static_cast<int32_t>(rng() % 16) - 3);
+  }
+  orientPositive(m);
+  // A nearly flat tet may be negative both ways round (rounding); readMesh would swap it back.
+  for (size_t t = 0; t < nt; ++t)
+    if (m.tetVolume(t) < 0) m.tets[t][1] = m.tets[t][0];
+  auto field = [&](size_t n, int components) {
+    Field f{components, {}};
+    for (size_t i = 0; i < n * size_t(components); ++i) f.values.push_back(u(rng) * 1e-3);
+    return f;
+  };
+  m.pointFields["p1"] = field(np, 1);
+  m.pointFields["p3"] = field(np, 3);
+  m.cellFields["c1"] = field(nt, 1);
+  m.cellFields["c3"] = field(nt, 3);
+  return m;
+}
+
+// What writeMesh did before VtuWriter: VTK's writer with the same settings.
+void writeWithVtk(const std::string& path, const TetMesh& m, bool wideCells = false) {
+  vtkNew<vtkUnstructuredGrid> grid;
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToDouble();
+  pts->SetNumberOfPoints(static_cast<vtkIdType>(m.numPoints()));
+  for (size_t i = 0; i < m.numPoints(); ++i)
+    pts->SetPoint(static_cast<vtkIdType>(i), m.points[i].data());
+  grid->SetPoints(pts);
+  vtkNew<vtkCellArray> cells;
+  const vtkIdType nt = static_cast<vtkIdType>(m.numTets());
+  auto fill = [&](auto* offsets, auto* conn) {
+    offsets->SetNumberOfValues(nt + 1);
+    conn->SetNumberOfValues(4 * nt);
+    for (vtkIdType t = 0; t <= nt; ++t) offsets->SetValue(t, 4 * t);
+    for (vtkIdType t = 0; t < nt; ++t)
+      for (int k = 0; k < 4; ++k) conn->SetValue(4 * t + k, m.tets[size_t(t)][k]);
+    cells->SetData(offsets, conn);
+  };
+  if (wideCells) {
+    vtkNew<vtkTypeInt64Array> offsets, conn;
+    fill(offsets.Get(), conn.Get());
+  } else {
+    vtkNew<vtkTypeInt32Array> offsets, conn;
+    fill(offsets.Get(), conn.Get());
+  }
+  grid->SetCells(VTK_TETRA, cells);
+  vtkNew<vtkIntArray> mat;
+  mat->SetName("material");
+  mat->SetNumberOfValues(nt);
+  for (vtkIdType t = 0; t < nt; ++t) mat->SetValue(t, m.materials[size_t(t)]);
+  grid->GetCellData()->AddArray(mat);
+  auto add = [](const std::map<std::string, Field>& fields, vtkDataSetAttributes* attr) {
+    for (const auto& [name, f] : fields) {
+      vtkNew<vtkDoubleArray> a;
+      a->SetName(name.c_str());
+      a->SetNumberOfComponents(f.components);
+      a->SetNumberOfValues(static_cast<vtkIdType>(f.values.size()));
+      for (size_t i = 0; i < f.values.size(); ++i)
+        a->SetValue(static_cast<vtkIdType>(i), f.values[i]);
+      attr->AddArray(a);
+    }
+  };
+  add(m.pointFields, grid->GetPointData());
+  add(m.cellFields, grid->GetCellData());
+  vtkNew<vtkXMLUnstructuredGridWriter> w;
+  w->SetFileName(path.c_str());
+  w->SetInputData(grid);
+  w->SetDataModeToAppended();
+  w->EncodeAppendedDataOff();
+  w->SetCompressorTypeToZLib();
+  w->SetCompressionLevel(1);
+  w->SetHeaderTypeToUInt64();
+  ASSERT_EQ(w->Write(), 1);
+}
+
+void expectIdentical(const TetMesh& want, const TetMesh& got) {
+  EXPECT_TRUE(got.points == want.points);
+  EXPECT_TRUE(got.tets == want.tets);
+  EXPECT_TRUE(got.materials == want.materials);
+  EXPECT_TRUE(got.pointFields == want.pointFields);
+  EXPECT_TRUE(got.cellFields == want.cellFields);
+}
+
+// Attributes of the file's XML elements named `element`, in order (the XML ends where the
+// appended data start).
+std::vector<std::map<std::string, std::string>> xmlTags(const std::string& file,
+                                                        const std::string& element) {
+  const std::string xml = file.substr(0, file.find("<AppendedData"));
+  std::vector<std::map<std::string, std::string>> tags;
+  for (size_t at = xml.find("<" + element + " "); at != std::string::npos;
+       at = xml.find("<" + element + " ", at + 1)) {
+    std::map<std::string, std::string> attrs;
+    size_t p = at + element.size() + 1;
+    const size_t end = xml.find('>', p);
+    while (true) {
+      const size_t eq = xml.find("=\"", p);
+      if (eq == std::string::npos || eq > end) break;
+      size_t name = eq;
+      while (name > p && xml[name - 1] != ' ') --name;
+      const size_t close = xml.find('"', eq + 2);
+      attrs[xml.substr(name, eq - name)] = xml.substr(eq + 2, close - eq - 2);
+      p = close + 1;
+    }
+    tags.push_back(attrs);
+  }
+  return tags;
+}
+
+std::string appendedData(const std::string& file) {
+  const size_t start = file.find('_', file.find("<AppendedData encoding=\"raw\">")) + 1;
+  const size_t end = file.rfind("</AppendedData>");
+  return file.substr(start, end - start);
+}
+
+std::string trimmed(std::string s) {
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+// Sizes: nothing; points without tets; one tet; several blocks per array; every array an exact
+// multiple of the 32 KiB block (8192 points, 32768 tets); many blocks and chunks of 3 blocks.
+const std::vector<std::array<size_t, 2>> kVtuSizes = {
+    {0, 0}, {5, 0}, {4, 1}, {300, 1000}, {8192, 32768}, {12345, 50001}};
+
+TEST(MeshIOVtu, RandomMeshesReadBackExactly) {
+  TempDir dir;
+  unsigned seed = 1;
+  for (const auto& [np, nt] : kVtuSizes) {
+    SCOPED_TRACE(std::to_string(np) + " points, " + std::to_string(nt) + " tets");
+    const TetMesh m = randomTets(np, nt, seed++);
+    writeMesh(dir.file("m.vtu"), m);
+    expectIdentical(m, readMesh(dir.file("m.vtu")));
+    // Chunks of 3 blocks (many writes and cancellation checks per array) give the same bytes.
+    VtuWriteOptions small;
+    small.blocksPerChunk = 3;
+    writeVtuFile(dir.file("small.vtu"), m, small);
+    EXPECT_TRUE(readText(dir.file("small.vtu")) == readText(dir.file("m.vtu")));
+  }
+  EXPECT_EQ(dirEntries(dir.path()), (std::vector<std::string>{"m.vtu", "small.vtu"}));
+}
+
+// The file of VtuWriter is VTK's file: the same arrays (types, names, components, order and
+// offsets), the same appended bytes (VTK's zlib is the system zlib, so even the compressed blocks
+// agree), and the same mesh when read; the ranges agree to VTK's 11 digits.
+TEST(MeshIOVtu, SameFileAsVtksWriter) {
+  TempDir dir;
+  unsigned seed = 40;
+  for (const auto& [np, nt] : kVtuSizes) {
+    for (const bool wide : {false, true}) {
+      SCOPED_TRACE(std::to_string(np) + " points, " + std::to_string(nt) + " tets" +
+                   (wide ? ", 64-bit cells" : ""));
+      const TetMesh m = randomTets(np, nt, seed++);
+      const std::string ours = dir.file("ours.vtu"), vtks = dir.file("vtk.vtu");
+      VtuWriteOptions options;
+      options.int64Cells = wide;
+      writeVtuFile(ours, m, options);
+      writeWithVtk(vtks, m, wide);
+      const std::string a = readText(ours), b = readText(vtks);
+      EXPECT_EQ(a.substr(0, a.find('\n')), b.substr(0, b.find('\n')));
+      const auto pa = xmlTags(a, "Piece"), pb = xmlTags(b, "Piece");
+      ASSERT_EQ(pa.size(), 1u);
+      ASSERT_EQ(pb.size(), 1u);
+      EXPECT_EQ(pa[0].at("NumberOfPoints"), trimmed(pb[0].at("NumberOfPoints")));
+      EXPECT_EQ(pa[0].at("NumberOfCells"), trimmed(pb[0].at("NumberOfCells")));
+      const auto ta = xmlTags(a, "DataArray"), tb = xmlTags(b, "DataArray");
+      ASSERT_EQ(ta.size(), tb.size());
+      ASSERT_EQ(ta.size(), 4u + m.pointFields.size() + m.cellFields.size() + 1);
+      EXPECT_EQ(ta.back().at("Name"), "types");
+      EXPECT_EQ(ta[ta.size() - 3].at("type"), wide ? "Int64" : "Int32"); // connectivity
+      for (size_t i = 0; i < ta.size(); ++i) {
+        SCOPED_TRACE(ta[i].count("Name") ? ta[i].at("Name") : "?");
+        for (const char* key : {"type", "Name", "NumberOfComponents", "format", "offset"}) {
+          const std::string va = ta[i].count(key) ? ta[i].at(key) : "-";
+          const std::string vb = tb[i].count(key) ? trimmed(tb[i].at(key)) : "-";
+          EXPECT_EQ(va, vb) << key;
+        }
+        // Single-component value arrays with values carry a range; VTK rounds it to 11 digits.
+        const std::string name = ta[i].at("Name");
+        const bool ranged =
+            (name == "p1" && np > 0) || ((name == "material" || name == "c1") && nt > 0);
+        EXPECT_EQ(ta[i].count("RangeMin") == 1 && ta[i].count("RangeMax") == 1, ranged);
+        if (ranged)
+          for (const char* key : {"RangeMin", "RangeMax"}) {
+            const double va = std::stod(ta[i].at(key)), vb = std::stod(tb[i].at(key));
+            EXPECT_NEAR(va, vb, 1e-10 * std::max(1.0, std::abs(vb))) << key;
+          }
+      }
+      // The block header of the first array (p1): [blocks, 32768, bytes in a partial last block
+      // (0 when the last block is full), compressed sizes].
+      uint64_t head[3];
+      std::memcpy(head, appendedData(a).data(), sizeof head);
+      const uint64_t bytes = 8 * np;
+      EXPECT_EQ(head[0], (bytes + 32767) / 32768);
+      EXPECT_EQ(head[1], 32768u);
+      EXPECT_EQ(head[2], bytes % 32768);
+      EXPECT_TRUE(appendedData(a) == appendedData(b)) << "appended data differ";
+      expectIdentical(m, readMesh(ours));
+      expectIdentical(readMesh(vtks), readMesh(ours));
+    }
+  }
+}
+
+// VTK 9.1's writer puts names into the XML as they are (a name with '"' or '<' made its file
+// unreadable); ours escapes them.
+TEST(MeshIOVtu, FieldNamesAreEscaped) {
+  TempDir dir;
+  TetMesh m = cubeMesh();
+  const std::string odd = "a<b & \"c\" 'd'>";
+  m.pointFields[odd] = m.pointFields.at("temperature");
+  m.cellFields[odd + "2"] = m.cellFields.at("direction");
+  writeMesh(dir.file("m.vtu"), m);
+  expectIdentical(m, readMesh(dir.file("m.vtu")));
+}
+
+// Ranges leave out NaN, and an array without a finite value gets none.
+TEST(MeshIOVtu, RangesOfSingleComponentArrays) {
+  TempDir dir;
+  TetMesh m = cubeMesh();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  m.cellFields["some_nan"] = Field{1, {nan, 2.5, -3, nan, 0, 1}};
+  m.cellFields["all_nan"] = Field{1, std::vector<double>(6, nan)};
+  m.cellFields["infinite"] = Field{1, {1, 2, 3, 4, 5, std::numeric_limits<double>::infinity()}};
+  writeMesh(dir.file("m.vtu"), m);
+  std::map<std::string, std::map<std::string, std::string>> byName;
+  for (const auto& tag : xmlTags(readText(dir.file("m.vtu")), "DataArray"))
+    byName[tag.at("Name")] = tag;
+  EXPECT_EQ(byName["material"]["RangeMin"], "1");
+  EXPECT_EQ(byName["material"]["RangeMax"], "7");
+  EXPECT_EQ(byName["some_nan"]["RangeMin"], "-3");
+  EXPECT_EQ(byName["some_nan"]["RangeMax"], "2.5");
+  EXPECT_EQ(byName["all_nan"].count("RangeMin"), 0u);
+  EXPECT_EQ(byName["infinite"].count("RangeMax"), 0u);
+  EXPECT_EQ(byName["direction"].count("RangeMin"), 0u); // 3 components
+  const TetMesh back = readMesh(dir.file("m.vtu"));
+  EXPECT_TRUE(std::isnan(back.cellFields.at("all_nan").values[3]));
+  EXPECT_EQ(back.cellFields.at("some_nan").values[1], 2.5);
+}
+
+// Cancelled in the middle of a write: the writer stops at its next chunk, leaves no file and
+// keeps the old one.
+TEST(MeshIOVtu, ACancelledWriteStopsAtTheNextChunk) {
+  class CancelAtAQuarter : public Progress {
+  public:
+    double last = 0;
+    int reports = 0;
+
+  protected:
+    void onReport(double fraction) override {
+      last = fraction;
+      ++reports;
+      if (fraction >= 0.25) requestCancel();
+    }
+  };
+  TempDir dir;
+  const std::string path = dir.file("keep.vtu");
+  const TetMesh old = cubeMesh();
+  writeMesh(path, old);
+  const TetMesh big = randomTets(20000, 60000, 7);
+  VtuWriteOptions options;
+  options.blocksPerChunk = 3;
+  CancelAtAQuarter progress;
+  {
+    const ScopedCurrentProgress current(&progress);
+    EXPECT_THROW(writeVtuFile(path, big, options), Cancelled);
+  }
+  EXPECT_GE(progress.last, 0.25);
+  EXPECT_LT(progress.last, 0.3); // nothing was compressed after the cancellation
+  EXPECT_GT(progress.reports, 5);
+  EXPECT_EQ(dirEntries(dir.path()), std::vector<std::string>{"keep.vtu"});
+  expectIdentical(old, readMesh(path));
+  // Without a cancellation every chunk is reported, up to the whole file.
+  class LastFraction : public Progress {
+  public:
+    double last = 0;
+
+  protected:
+    void onReport(double fraction) override { last = fraction; }
+  } whole;
+  {
+    const ScopedCurrentProgress current(&whole);
+    writeVtuFile(path, big, options);
+  }
+  EXPECT_EQ(whole.last, 1.0);
+  expectIdentical(big, readMesh(path));
+}
+
+// A write that fails midway (here: the file-size limit, as a full disk would) is an InputError
+// naming the file and the system's reason; the old file stays and no temp file is left.
+TEST(MeshIOVtu, AWriteErrorLeavesNothing) {
+  TempDir dir;
+  const TetMesh m = randomTets(20000, 60000, 8);
+  const std::string missing = (dir.path() / "no_such_folder" / "m.vtu").string();
+  EXPECT_THROW_MSG(writeMesh(missing, m), InputError, missing, "does not exist");
+  EXPECT_TRUE(dirEntries(dir.path()).empty());
+
+  const std::string path = dir.file("keep.vtu");
+  const TetMesh old = cubeMesh();
+  writeMesh(path, old);
+  struct rlimit saved {};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  struct rlimit small = saved;
+  small.rlim_cur = 256 * 1024;
+  // Ignored, SIGXFSZ no longer ends the process and the write fails with EFBIG instead.
+  void (*savedHandler)(int) = std::signal(SIGXFSZ, SIG_IGN);
+  if (setrlimit(RLIMIT_FSIZE, &small) == 0) {
+    EXPECT_THROW_MSG(writeMesh(path, m), InputError, path, ": cannot write: ",
+                     std::strerror(EFBIG), "nothing was written");
+    setrlimit(RLIMIT_FSIZE, &saved);
+  } else {
+    ADD_FAILURE() << "setrlimit: " << std::strerror(errno);
+  }
+  std::signal(SIGXFSZ, savedHandler);
+  EXPECT_EQ(dirEntries(dir.path()), std::vector<std::string>{"keep.vtu"});
+  expectIdentical(old, readMesh(path));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1102,9 +1446,10 @@ TEST(MeshIOWrite, ACancelledWriteKeepsTheOldFile) {
   EXPECT_EQ(dirEntries(dir.path()).size(), 4u) << "keep.vtu, keep.vtk, keep.node, keep.ele and nothing else";
 }
 
-// VTK's writers, through the cancellable subclasses, stop at their first piece once the running
-// module is cancelled: a mesh of 400 k tets is abandoned after a small part of its file.
-TEST(MeshIOWrite, VtkWritersStopEarlyOnceTheModuleIsCancelled) {
+// VTK's legacy writer, through its cancellable subclass, stops at its first piece once the running
+// module is cancelled: a mesh of 400 k tets is abandoned after a small part of its file. (The
+// .vtu writer is our own: MeshIOVtu.ACancelledWriteStopsAtTheNextChunk.)
+TEST(MeshIOWrite, VtkLegacyWriterStopsEarlyOnceTheModuleIsCancelled) {
   TempDir dir;
   const vtkIdType nt = 400000, np = 100000;
   std::mt19937 rng(3);
@@ -1131,31 +1476,21 @@ TEST(MeshIOWrite, VtkWritersStopEarlyOnceTheModuleIsCancelled) {
     NullProgress progress;
     if (cancel) progress.requestCancel();
     const ScopedCurrentProgress current(&progress);
-    vtkNew<CancellableVtuWriter> vtu;
-    vtu->SetFileName(dir.file("g.vtu").c_str());
-    vtu->SetInputData(grid);
-    vtu->SetDataModeToAppended();
-    vtu->SetCompressorTypeToZLib();
-    const int okVtu = vtu->Write();
     vtkNew<CancellableLegacyVtkWriter> vtk;
     vtk->SetFileName(dir.file("g.vtk").c_str());
     vtk->SetInputData(grid);
     vtk->SetFileTypeToBinary();
     const int okVtk = vtk->Write();
-    EXPECT_EQ(okVtu == 1 && vtu->GetErrorCode() == 0, !cancel);
     EXPECT_EQ(okVtk == 1 && vtk->GetErrorCode() == 0, !cancel);
     // (The legacy writer deletes its file when its stream fails.)
-    auto size = [&](const char* n) { return fs::exists(dir.file(n)) ? fs::file_size(dir.file(n)) : 0; };
-    return std::array<uintmax_t, 2>{size("g.vtu"), size("g.vtk")};
+    return fs::exists(dir.file("g.vtk")) ? fs::file_size(dir.file("g.vtk")) : uintmax_t(0);
   };
   const auto full = writeBoth(false);
-  EXPECT_GT(full[0], 4000000u);
-  EXPECT_GT(full[1], 4000000u);
+  EXPECT_GT(full, 4000000u);
   vtkObject::GlobalWarningDisplayOff(); // the writers' "out of disk space" messages
   const auto stopped = writeBoth(true);
   vtkObject::GlobalWarningDisplayOn();
-  EXPECT_LT(stopped[0], full[0] / 4) << "vtu";
-  EXPECT_LT(stopped[1], full[1] / 4) << "vtk";
+  EXPECT_LT(stopped, full / 4);
 }
 
 // The VTK writers borrow the mesh's coordinates and double fields without a copy: writing must

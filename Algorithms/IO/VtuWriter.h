@@ -1,0 +1,31 @@
+#pragma once
+// .vtu writer: the VTK XML UnstructuredGrid layout of vtkXMLUnstructuredGridWriter in appended raw
+// mode with UInt64 headers and zlib (level 1, 32 KiB blocks), written without VTK. VTK's writer
+// compresses on one thread and first copies the connectivity into its own arrays; this one
+// compresses blocks in parallel straight from the mesh's memory, a few MiB at a time, so the
+// write is faster and needs no copy of the mesh (README "Supported file formats").
+//
+// Arrays, in file order: PointData (every point field), CellData ("material" Int32, then every
+// cell field), Points (Float64 x3), Cells (connectivity and offsets Int32, or Int64 once 4 * tets
+// exceeds the int32 range; types UInt8 = VTK_TETRA). Fields are Float64 with their components, in
+// name order. Single-component arrays carry RangeMin/RangeMax (NaN ignored; left out when no
+// value is finite).
+#include <string>
+
+#include "../Core/TetMesh.h"
+
+namespace tetflow {
+
+struct VtuWriteOptions {
+  // 64-bit connectivity and offsets even where 32-bit ones fit (for tests of the huge-mesh path).
+  bool int64Cells = false;
+  // Blocks compressed together between two writes and cancellation checks (4 MiB of input).
+  int blocksPerChunk = 128;
+};
+
+// Writes `m` to `path` atomically (temp file + rename). The caller has validated the mesh and
+// its field names (writeMesh). Throws InputError naming `path` when the file cannot be written
+// (nothing is left behind), Cancelled once the running module (currentProgress()) is cancelled.
+void writeVtuFile(const std::string& path, const TetMesh& m, const VtuWriteOptions& options = {});
+
+} // namespace tetflow
