@@ -25,6 +25,7 @@
 // correction, the certificate.
 //
 //   fidelity_benchmark [RESULTS_FILE] [--quick | --organ | --random]
+//   fidelity_benchmark --write-organ OUT.nrrd    (the organ below, as a file)
 #include <omp.h>
 
 #include <chrono>
@@ -43,6 +44,7 @@
 #include "Algorithms/BackgroundMesh/ThinLayers.h"
 #include "Algorithms/Cleaving/CleavePipeline.h"
 #include "Algorithms/Core/Phantom.h"
+#include "Algorithms/IO/VolumeIO.h"
 #include "Algorithms/MeshImprovement/MeshImprovement.h"
 #include "Algorithms/Quality/Certificate.h"
 #include "Algorithms/Quality/MeshQuality.h"
@@ -171,7 +173,10 @@ int main(int argc, char** argv) {
     if (s == "--quick") quick = true;
     else if (s == "--organ") organOnly = true;
     else if (s == "--random") randomOnly = true;
-    else results = s;
+    else if (s == "--write-organ" && a + 1 < argc) { // the organ as a file, for pipeline_targets.sh
+      writeVolume(argv[a + 1], fromLabelVolume(organ()));
+      return 0;
+    } else results = s;
   }
   std::ostringstream out;
   auto emit = [&](const std::string& s) {

@@ -1,11 +1,15 @@
 // Layered head generator (Testing/Fixtures/LayeredHead.h): writes the label volume built from
 // mricron-data's HarvardOxford and JHU atlases (0 air, 1 scalp, 2 skull, 3 CSF, 4 grey, 5 white).
 //
-//   layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--stats]
+//   layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--parcels] [--stats]
 //
 // The atlases are read from $TETFLOW_MRICRON_DIR or /usr/share/mricron/templates (Debian package
 // mricron-data, installed by scripts/setup.sh). --stats prints voxel counts, 26-connected
 // components, box faces, contacts, enclosed air and the thickness of the CSF, skull and scalp.
+// --parcels (1 mm) keeps the brain alone (0 around it) and splits its grey matter into
+// HarvardOxford's 48 cortical labels per hemisphere (labels 6-101): a 99-label brain atlas for the
+// pipeline benchmarks.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -153,14 +157,15 @@ int main(int argc, char** argv) {
     if (s == "--voxel" && a + 1 < argc) p.voxel = std::atoi(argv[++a]);
     else if (s == "--variant" && a + 1 < argc) p.variant = std::atoi(argv[++a]);
     else if (s == "--stats") stats = true;
+    else if (s == "--parcels") p.parcels = true;
     else if (!s.empty() && s[0] != '-' && outPath.empty()) outPath = s;
     else {
-      std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--stats]\n");
+      std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--parcels] [--stats]\n");
       return 2;
     }
   }
   if (outPath.empty()) {
-    std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--stats]\n");
+    std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--parcels] [--stats]\n");
     return 2;
   }
   try {
@@ -173,7 +178,13 @@ int main(int argc, char** argv) {
     std::printf("layered head variant %d, %d mm: generated in %.2f s, written in %.2f s -> %s\n", p.variant, p.voxel,
                 std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count(),
                 outPath.c_str());
-    if (stats) printStats(v, info, p.voxel);
+    if (p.parcels) {
+      std::set<int32_t> labels(v.data.begin(), v.data.end());
+      std::printf("%zu labels (grey matter in %zu cortical parcels)\n", labels.size(),
+                  size_t(std::count_if(labels.begin(), labels.end(), [](int32_t l) { return l > kHeadWhite; })));
+    } else if (stats) {
+      printStats(v, info, p.voxel);
+    }
   } catch (const Error& e) {
     std::fprintf(stderr, "layered_head: %s\n", e.what());
     return 1;

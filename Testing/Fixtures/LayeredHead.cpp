@@ -213,6 +213,7 @@ bool mricronAtlasesPresent(const std::string& dir, std::string* why) {
 
 LabelVolume makeLayeredHead(const std::string& dir, const LayeredHeadParams& p, LayeredHeadInfo* info) {
   if (p.variant < 0 || p.variant > 2) throw InputError("layered head: variant must be 0, 1 or 2");
+  if (p.parcels && p.voxel != 1) throw InputError("layered head: parcels are made at 1 mm only (voxel 1)");
   if (p.voxel != 1 && p.voxel != 2) throw InputError("layered head: voxel must be 1 or 2 (mm)");
   std::string why;
   if (!mricronAtlasesPresent(dir, &why)) throw InputError("layered head: " + why);
@@ -478,9 +479,19 @@ LabelVolume makeLayeredHead(const std::string& dir, const LayeredHeadParams& p, 
           break;
         }
   }
+  // ---- 9. Parcels: a many-label brain atlas of realistic shapes (a stand-in for atlases such as
+  // AAL's 116 regions, which label the brain and nothing around it). Grey matter takes its
+  // cortical label, left (6-53) or right (54-101); grey without one (the stand-ins) stays grey,
+  // white stays white; everything outside the brain (CSF included) becomes 0.
+  if (p.parcels) {
+    forVoxels(D, [&](int64_t i, int64_t j, int64_t k, size_t x) {
+      if (L[x] == kHeadGrey && ho[x] > 0 && ho[x] <= 48) L[x] = 5 + ho[x] + (mni(i, j, k)[0] > 0 ? 48 : 0);
+      else if (L[x] != kHeadGrey && L[x] != kHeadWhite) L[x] = kHeadAir;
+    });
+  }
   if (p.voxel == 1) return out;
 
-  // ---- 9. 2 mm: the most frequent label of each 2x2x2 block (ties to the lower label).
+  // ---- 10. 2 mm: the most frequent label of each 2x2x2 block (ties to the lower label).
   GridGeometry g2 = g;
   for (int a = 0; a < 3; ++a) g2.dims[a] = g.dims[a] / 2, g2.spacing[a] = 2, g2.origin[a] = g.origin[a] + 0.5;
   LabelVolume out2;

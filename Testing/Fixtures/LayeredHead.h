@@ -31,6 +31,9 @@ struct LayeredHeadParams {
   double sulcusMin = 10.0, sulcusMax = 15.0; // sulci reach this deep below the brain surface (mm)
   bool cavities = true;                     // frontal sinus, mastoid cells, ear canals
   bool specks = true;                       // 1-3 voxel islands (8 of them)
+  bool parcels = false;                     // 1 mm only: the brain alone (0 around it), its grey
+                                            // matter split into HarvardOxford's cortical labels
+                                            // per hemisphere (labels 6-101)
 };
 
 // Landmarks of what was placed, in voxel indices of the 1 mm grid (for tests and reports).
