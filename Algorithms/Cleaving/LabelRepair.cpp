@@ -186,6 +186,7 @@ struct Steps {
   const std::vector<int32_t>& nb;
   int64_t n;
   IndexFrame frame;
+  const VertexStars* stars = nullptr; // the mesh's vertex stars when already built (else built where needed)
 };
 
 void repairContacts(Steps& s) {
@@ -236,7 +237,9 @@ void repairPointContacts(Steps& s) {
   auto& nb = s.nb;
   progress.beginStage("repair point contacts");
   const size_t nP = mesh.numPoints();
-  const VertexStars stars = vertexStars(mesh);
+  VertexStars own; // relabelling leaves the stars as they are: the caller's serve when it has them
+  if (!s.stars) own = vertexStars(mesh);
+  const VertexStars& stars = s.stars ? *s.stars : own;
   const std::vector<int64_t>& off = stars.offset;
   const std::vector<int32_t>& star = stars.tets;
   for (int round = 0; round < 4; ++round) {
@@ -746,7 +749,7 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
   LabelRepairParams p = params;
   p.connect = p.fragments = false;
-  Steps s{mesh, materials, p, progress, st, labels, none, allowed, nb, int64_t(mesh.numTets()), IndexFrame{labels.grid}};
+  Steps s{mesh, materials, p, progress, st, labels, none, allowed, nb, int64_t(mesh.numTets()), IndexFrame{labels.grid}, &stars};
   if (p.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (p.points) repairPointContacts(s);
   if (p.edges) repairEdges(s);
@@ -781,7 +784,7 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
 
-  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}};
+  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, nullptr};
   if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (params.points) repairPointContacts(s);
   if (params.connect) repairConnections(s);
