@@ -12,6 +12,8 @@
 #include <utility>
 #include <vector>
 
+#include "Algorithms/IO/XmlText.h" // xmlEscape
+
 namespace tetflow {
 
 struct XmlAttribute {
@@ -38,8 +40,5 @@ public:
 
 // Parse a whole document; returns the root element. Throws XmlError with the line.
 std::unique_ptr<XmlElement> parseXml(const std::string& text);
-
-// Escape text for an attribute value or character data (& < > " and control characters).
-std::string xmlEscape(const std::string& s);
 
 } // namespace tetflow

@@ -36,6 +36,7 @@
 #include "../Core/Errors.h"
 #include "../Core/Progress.h"
 #include "FileUtil.h"
+#include "XmlText.h"
 
 namespace tetflow {
 
@@ -118,21 +119,6 @@ public:
 private:
   z_stream zs_{};
 };
-
-std::string xmlEscape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-    case '&': out += "&amp;"; break;
-    case '<': out += "&lt;"; break;
-    case '>': out += "&gt;"; break;
-    case '"': out += "&quot;"; break;
-    case '\'': out += "&apos;"; break;
-    default: out += c;
-    }
-  }
-  return out;
-}
 
 template <class T>
 void appendNumber(std::string& out, T v) {
