@@ -74,8 +74,9 @@ case "${1:-}" in
       cmake --build "$ASAN_DIR" -j "$JOBS"
       cd "$ASAN_DIR"
       # Left out here, run above in Release: the studies that repeat one pipeline on large meshes
-      # (180-620 s each under ASan). What they run is covered under ASan by the smaller tests of
-      # the same code (random volumes, Nets.default, the particle and lead-field tests).
+      # (23-107 s each in Release, two to three times that under ASan). What they run is covered
+      # under ASan by the smaller tests of the same code (random volumes, Nets.default, the
+      # particle and lead-field tests).
       heavy='^(Nets\.(adaptive_particles|adaptive_head|eeg_leadfield|TheHeadNetsPassTheirCertificatesOnALayeredHead|ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes)'
       heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
       heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation)$'
