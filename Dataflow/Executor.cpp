@@ -10,6 +10,9 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#ifdef __GLIBC__
+#include <malloc.h> // malloc_trim
+#endif
 
 namespace tetflow {
 
@@ -159,7 +162,8 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
 
   // Dependency counts within scope.
   std::map<std::string, int> pending;
-  std::map<std::string, std::vector<std::string>> down;
+  std::map<std::string, std::vector<std::string>> down, upstream;
+  std::map<std::string, int> consumersLeft; // releaseConsumed: modules downstream still to finish
   for (const auto& id : scope) pending[id] = 0;
   {
     std::set<std::pair<std::string, std::string>> edges;
@@ -167,6 +171,8 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       if (scope.count(c.from) && scope.count(c.to) && edges.insert({c.from, c.to}).second) {
         ++pending[c.to];
         down[c.from].push_back(c.to);
+        upstream[c.to].push_back(c.from);
+        ++consumersLeft[c.from];
       }
   }
 
@@ -191,9 +197,22 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
     if (scope.count(n.id) && pending[n.id] == 0) ready.push_back(n.id);
 
   // Called with qm held after `id` reached a final state.
+  bool trim = false; // something was released: hand freed memory back once the consumer returns
   std::function<void(const std::string&, bool)> complete = [&](const std::string& id, bool ok) {
     ++finished;
     sum.order.push_back(id);
+    if (opt.releaseConsumed)
+      for (const auto& u : upstream[id])
+        if (--consumersLeft[u] == 0) { // the consumer still holds its inputs until it returns
+          std::lock_guard<std::mutex> lock(mutex_);
+          ModuleState& s = states_[u];
+          if (!s.outputs.empty()) {
+            s.outputs.clear();
+            s.valid = false;
+            s.released = true;
+            trim = true;
+          }
+        }
     for (const auto& d : down[id]) {
       if (!ok && !blockedBy.count(d)) blockedBy[d] = blockedBy.count(id) ? blockedBy[id] : id;
       if (--pending[d] == 0) ready.push_back(d);
@@ -244,6 +263,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       ModuleState& s = states_[id];
       s.valid = false;
       s.reused = false;
+      s.released = false;
       s.outputs.clear();
       s.report = Report{};
       s.messages.clear();
@@ -372,7 +392,15 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
           continue;
         }
       }
-      runOne(id);
+      runOne(id); // its inputs are let go here: what it was the last to consume is freed now
+      bool release = false;
+      {
+        std::lock_guard<std::mutex> lk(qm);
+        std::swap(release, trim);
+      }
+#ifdef __GLIBC__
+      if (release) malloc_trim(0); // glibc keeps freed heap memory otherwise
+#endif
     }
   };
 

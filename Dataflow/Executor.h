@@ -43,6 +43,7 @@ struct ModuleState {
   std::string error;      // Error: message (starts with the module id)
   std::string errorKind;  // "input", "processing", "internal"
   std::string skippedBecause; // Skipped: id of the failed upstream module
+  bool released = false;  // outputs dropped after their last consumer (Options::releaseConsumed)
   // Error from a GateFailure: the outputs were set and go on downstream (the module still failed).
   bool passedOn = false;
   double seconds = 0.0;
@@ -66,6 +67,11 @@ public:
     // no current result). Empty = the whole network.
     std::vector<std::string> only;
     bool force = false; // re-run even when nothing changed
+    // Drop a module's outputs as soon as every module downstream of it in this run has finished
+    // (the headless runner: a run's peak memory then holds only what is still to be consumed).
+    // Such a module is left without a current result (ModuleState::released), so a later
+    // execute() runs it again. Outputs nothing in the run consumes are kept.
+    bool releaseConsumed = false;
   };
   struct Summary {
     bool success = true;

@@ -217,6 +217,7 @@ int runNetwork(Network* net, const RunArgs& args,
   Executor exec;
   Executor::Options opt;
   opt.threads = args.threads;
+  opt.releaseConsumed = true; // one run, nothing reused after it: memory back as soon as it can go
   std::mutex printMutex;
   ExecutionObserver obs;
   obs.onStatus = [&](const std::string& id, ModuleStatus st) {

@@ -202,3 +202,55 @@ TEST_F(ExecFixture, ObserverSeesEveryTransitionAndReportIsJson) {
   EXPECT_NE(json.find("\"error\": \"m1: asked to fail\""), std::string::npos);
   EXPECT_NE(json.find("\"skipped_because\": \"m1\""), std::string::npos);
 }
+
+// releaseConsumed (the headless runner): an output goes as soon as the last module consuming it
+// has finished, the data itself freed; outputs nothing consumes stay; what was released runs again
+// next time, with the same results.
+TEST_F(ExecFixture, ReleasedOutputsAreFreedAfterTheirLastConsumerAndRunAgainNextTime) {
+  Network net(reg);
+  // m1 -> m2 -> m4, m1 -> m3
+  for (int i = 0; i < 4; ++i) net.addModule("Number");
+  net.setParameterText("m1", "value", "1");
+  net.setParameterText("m2", "value", "10");
+  net.setParameterText("m3", "value", "100");
+  net.setParameterText("m4", "value", "1000");
+  net.connect("m1", 0, "m2", 0);
+  net.connect("m1", 0, "m3", 0);
+  net.connect("m2", 0, "m4", 0);
+  Executor exec;
+  Executor::Options opt;
+  opt.releaseConsumed = true;
+  std::weak_ptr<const DataObject> first;
+  std::mutex m;
+  ExecutionObserver obs;
+  obs.onStatus = [&](const std::string& id, ModuleStatus st) {
+    if (id != "m1" || st != ModuleStatus::Done) return;
+    std::lock_guard<std::mutex> lock(m);
+    first = exec.state("m1")->outputs.at(0);
+  };
+  auto sum = exec.execute(net, opt, obs);
+  ASSERT_TRUE(sum.success);
+  EXPECT_TRUE(first.expired()); // freed, not only forgotten
+  for (const char* id : {"m1", "m2"}) {
+    EXPECT_TRUE(exec.state(id)->released) << id;
+    EXPECT_TRUE(exec.state(id)->outputs.empty()) << id;
+    EXPECT_EQ(exec.state(id)->status, ModuleStatus::Done) << id;
+  }
+  for (const char* id : {"m3", "m4"}) {
+    EXPECT_FALSE(exec.state(id)->released) << id;
+    EXPECT_EQ(exec.state(id)->outputs.size(), 1u) << id;
+  }
+  EXPECT_DOUBLE_EQ(value(exec, "m3"), 101.0);
+  EXPECT_DOUBLE_EQ(value(exec, "m4"), 1011.0);
+  sum = exec.execute(net, opt, obs);
+  EXPECT_EQ(sum.ran, 4); // m1, m2 had no result left; m3, m4 get new inputs
+  EXPECT_DOUBLE_EQ(value(exec, "m4"), 1011.0);
+  EXPECT_EQ(counters().count("m1"), 2);
+
+  // Without it (the node editor) everything stays and nothing runs again.
+  Executor keep;
+  keep.execute(net);
+  sum = keep.execute(net);
+  EXPECT_EQ(sum.reused, 4);
+  EXPECT_FALSE(keep.state("m1")->released);
+}
