@@ -90,6 +90,7 @@ public:
       p.size_scale = ctx.getDouble("particle_size_scale");
       p.max_iterations = int(ctx.getInt("particle_iterations"));
       p.theta = ctx.getDouble("particle_theta");
+      p.move_tolerance = ctx.getDouble("particle_tolerance");
       p.min_angle = ctx.getDouble("particle_min_angle");
       p.max_angle = ctx.getDouble("particle_max_angle");
       p.seed = uint32_t(ctx.getInt("particle_seed"));
@@ -191,6 +192,8 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   pit.max = 100000.0;
   ParamSpec ptheta = doubleParam("particle_theta", pd.theta, 0.0, 1.5, "",
                                  "particles: Barnes-Hut opening ratio (cell edge / distance; 0 = exact sums)");
+  ParamSpec ptol = doubleParam("particle_tolerance", pd.move_tolerance, 0.001, 0.5, "",
+                               "particles: the relaxation stops when no particle moves more than this x its spacing");
   ParamSpec pmin = doubleParam("particle_min_angle", pd.min_angle, 1.0, 35.0, "deg",
                                "particles: sliver removal target for the smallest dihedral angle of the background");
   ParamSpec pmax = doubleParam("particle_max_angle", pd.max_angle, 120.0, 179.0, "deg",
@@ -209,7 +212,7 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   thinOn.choices = {"separating", "all", "none"};
   ParamSpec thinCell = doubleParam("thin_layer_cell_size", 0.0, 0.0, std::nullopt, "mm",
                                    "refine_thin_layers: splitting stops at cells no longer than this (0 = sqrt 2 x the voxel size: cells within a factor sqrt 2 of the voxels)");
-  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, pmin, pmax, pseed, thinOn, thinCell};
+  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, ptol, pmin, pmax, pseed, thinOn, thinCell};
   m.summaryKeys = {"cells", "levels", "tets"};
   m.factory = [] { return std::make_unique<GenerateBackgroundMesh>(); };
   r.add(std::move(m));

@@ -155,7 +155,7 @@ ParticleMeshResult generateParticleMesh(const GridGeometry& grid, const ScalarVo
   need(p.size_scale > 0 && std::isfinite(p.size_scale), "particle_size_scale must be > 0");
   need(p.max_iterations >= 0 && p.max_iterations <= 100000, "particle_iterations must be in [0, 100000]");
   need(p.theta >= 0 && p.theta <= 1.5, "particle_theta must be in [0, 1.5]");
-  need(p.move_tolerance > 0 && std::isfinite(p.move_tolerance), "particle move tolerance must be > 0");
+  need(p.move_tolerance > 0 && std::isfinite(p.move_tolerance), "particle_tolerance must be > 0");
   need(p.poisson_samples >= 8 && p.poisson_samples <= 512, "particle poisson_samples must be in [8, 512]");
   const SizeRange range = checkSizingField(sizing);
 

@@ -163,6 +163,33 @@ TEST(Particles, RandomFieldsAndGridsStayValid) {
   }
 }
 
+// particle_tolerance: a coarser one stops the relaxation no later, on its largest move or its energy,
+// and the mesh still tiles the box within the sliver removal's targets.
+TEST(Particles, ACoarserToleranceStopsNoLaterAndStillTiles) {
+  GridGeometry g;
+  g.dims = {14, 12, 10};
+  const Vec3 focus{3, 4, 5};
+  const ScalarVolume s = fieldOn(g, [&](const Vec3& x) { return 0.8 + 0.3 * norm(x - focus); });
+  int last = 1 << 30, first = -1;
+  for (double tol : {0.005, 0.01, 0.05, 0.2}) {
+    ParticleParams p;
+    p.move_tolerance = tol;
+    NullProgress np;
+    const ParticleMeshResult r = generateParticleMesh(g, s, p, np);
+    SCOPED_TRACE(::testing::Message() << "tolerance " << tol << ": " << r.stats.iterations << " iterations, " << r.stats.stopReason);
+    EXPECT_LE(r.stats.iterations, last);
+    if (r.stats.stopReason == "largest_move") {
+      EXPECT_LT(r.stats.lastMaxMove, tol);
+    }
+    if (first < 0) first = r.stats.iterations;
+    last = r.stats.iterations;
+    const QualityResult q = expectTiles(r, g, 0.0);
+    EXPECT_GE(q.minDihedral, 15.0);
+    EXPECT_LE(q.maxDihedral, 150.0);
+  }
+  EXPECT_LT(last, first); // the tolerance is what stopped the finest run
+}
+
 TEST(Particles, ThinAndTinyBoxesStayValid) {
   // One voxel, a one-slice grid, a thin rod, and a field far larger than the box: corners, edges
   // and faces only, or nearly so.
@@ -215,6 +242,9 @@ TEST(Particles, BadInputIsAnInputError) {
   p = {};
   p.max_iterations = -1;
   expectError(p, s, "particle_iterations");
+  p = {};
+  p.move_tolerance = 0;
+  expectError(p, s, "particle_tolerance");
   p = {};
   p.padding = -1;
   expectError(p, s, "padding");
