@@ -2,6 +2,21 @@
 
 namespace tetflow {
 
+namespace {
+// A further local round's counts added to the first's (the forbidden faces after are the last's).
+void addLocalRepair(LabelRepairStats& into, const LabelRepairStats& more) {
+  into.contactTets += more.contactTets;
+  into.unresolvedTets = more.unresolvedTets;
+  into.pointContacts += more.pointContacts;
+  into.pointTets += more.pointTets;
+  into.closedEdges += more.closedEdges;
+  into.edgeTets += more.edgeTets;
+  into.relabelledVolume += more.relabelledVolume;
+  into.forbiddenFacesAfter = more.forbiddenFacesAfter;
+  into.forbiddenAreaAfter = more.forbiddenAreaAfter;
+}
+} // namespace
+
 CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet& mats, const CleavePipelineParams& p,
                                     Progress& progress) {
   CleavePipelineResult out;
@@ -29,16 +44,42 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
     progress.endStage();
     if (!check.extraPieces) { // only around the vertices the check found (nothing when none)
       out.repair = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress);
-      // What it relabelled may have cut a label in two: small pieces it cut off go to their
-      // neighbours (every label was in one piece before); anything else, the whole repair below.
-      if (out.repair.relabelledVolume > 0) {
+      // What it relabelled may have cut a label in two, or made new bad vertices next to the old
+      // ones. Small pieces it cut off go to their neighbours (every label was in one piece
+      // before). Bad vertices left get a further round around them (kLocalRounds in all), kept
+      // only when it leaves fewer bad vertices and no piece (otherwise the labels go back to what
+      // they were before it). The whole repair below runs when pieces are left, or when pieces
+      // were dissolved and bad vertices are left (then it may join what a local round cannot).
+      constexpr int kLocalRounds = 4;
+      struct State {
+        std::vector<int32_t> materials;
+        LabelRepairStats stats;
+        LabelRepairCheck check;
+        bool dissolved = false;
+      } saved;
+      bool dissolved = false;
+      for (int round = 1; out.repair.relabelledVolume > 0; ++round) {
         progress.beginStage("repair check");
         check = checkLabelRepair(r.mesh, contacts, progress);
-        if (check.extraPieces && !check.largeExtraPieces && check.badVertices.empty()) {
-          dissolvePieces(r.mesh, check.smallPieces, contacts, out.repair);
+        if (check.extraPieces && !check.largeExtraPieces) {
+          dissolved = dissolvePieces(r.mesh, check.smallPieces, contacts, out.repair) > 0 || dissolved;
           check = checkLabelRepair(r.mesh, contacts, progress);
         }
+        if (round > 1 && (check.extraPieces || check.badVertices.size() >= saved.check.badVertices.size())) {
+          r.mesh.materials.swap(saved.materials); // the further round did not help
+          out.repair = std::move(saved.stats);
+          check = std::move(saved.check);
+          dissolved = saved.dissolved;
+          break;
+        }
+        if (check.extraPieces || check.badVertices.empty() || round == kLocalRounds) break;
+        saved = State{r.mesh.materials, out.repair, check, dissolved};
+        const LabelRepairStats more = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress);
+        if (more.relabelledVolume == 0) break;
+        addLocalRepair(out.repair, more);
+        ++out.repair.localRounds;
       }
+      if (dissolved && !check.badVertices.empty()) check.extraPieces = true; // the whole repair
     }
     if (check.extraPieces) {
       progress.beginStage("image topology");

@@ -815,6 +815,8 @@ void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
   report.set("repair_connections", s.connections);
   report.set("repair_connect_tets", s.connectTets);
   report.set("repair_relabelled_volume_mm3", s.relabelledVolume);
+  report.set("repair_local", ReportValue(s.local));
+  report.set("repair_local_rounds", int64_t(s.localRounds));
 }
 
 } // namespace tetflow

@@ -89,6 +89,7 @@ struct LabelRepairStats {
   int fragmentRounds = 0, connectRounds = 0;
   bool skipped = false; // labelRepairNeeded found nothing to repair (nothing else was run)
   bool local = false;   // only around the check's vertices (repairLabelsAround)
+  int localRounds = 0;  // further rounds of it kept (CleavePipeline: bad vertices it left)
 };
 
 // Whether any repair step could change a label (a cheap, sufficient test: when it says no, none
