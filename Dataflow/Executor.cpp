@@ -197,7 +197,9 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
     if (scope.count(n.id) && pending[n.id] == 0) ready.push_back(n.id);
 
   // Called with qm held after `id` reached a final state.
-  bool trim = false; // something was released: hand freed memory back once the consumer returns
+  // Set on the worker thread whose module was the last consumer of something released: that
+  // worker hands the freed memory back once the module's run (which holds its inputs) is over.
+  static thread_local bool releasedHere = false; // the workers are new threads each run
   std::function<void(const std::string&, bool)> complete = [&](const std::string& id, bool ok) {
     ++finished;
     sum.order.push_back(id);
@@ -210,7 +212,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
             s.outputs.clear();
             s.valid = false;
             s.released = true;
-            trim = true;
+            releasedHere = true;
           }
         }
     for (const auto& d : down[id]) {
@@ -393,14 +395,10 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
         }
       }
       runOne(id); // its inputs are let go here: what it was the last to consume is freed now
-      bool release = false;
-      {
-        std::lock_guard<std::mutex> lk(qm);
-        std::swap(release, trim);
-      }
 #ifdef __GLIBC__
-      if (release) malloc_trim(0); // glibc keeps freed heap memory otherwise
+      if (releasedHere) malloc_trim(0); // glibc keeps freed heap memory otherwise
 #endif
+      releasedHere = false;
     }
   };
 
