@@ -42,8 +42,11 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
     LabelRepairCheck check = checkLabelRepair(r.mesh, oracle, progress);
     const auto& contacts = check.needed() ? oracle.all() : std::vector<std::pair<int32_t, int32_t>>{};
     progress.endStage();
-    if (!check.extraPieces) { // only around the vertices the check found (nothing when none)
-      out.repair = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress);
+    bool whole = check.extraPieces; // the whole repair, below
+    if (!whole) { // only around the vertices the check found (nothing when none)
+      // Relabelling leaves the tets around each vertex as they are: every round shares them.
+      const VertexStars stars = check.needed() ? vertexStars(r.mesh) : VertexStars{};
+      out.repair = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress, &stars);
       // What it relabelled may have cut a label in two, or made new bad vertices next to the old
       // ones. Small pieces it cut off go to their neighbours (every label was in one piece
       // before). Bad vertices left get a further round around them (kLocalRounds in all), kept
@@ -62,7 +65,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
         progress.beginStage("repair check");
         check = checkLabelRepair(r.mesh, contacts, progress);
         if (check.extraPieces && !check.largeExtraPieces) {
-          dissolved = dissolvePieces(r.mesh, check.smallPieces, contacts, out.repair) > 0 || dissolved;
+          dissolved = dissolvePieces(r.mesh, check.smallPieces, contacts, out.repair, &stars) > 0 || dissolved;
           check = checkLabelRepair(r.mesh, contacts, progress);
         }
         if (round > 1 && (check.extraPieces || check.badVertices.size() >= saved.check.badVertices.size())) {
@@ -74,14 +77,14 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
         }
         if (check.extraPieces || check.badVertices.empty() || round == kLocalRounds) break;
         saved = State{r.mesh.materials, out.repair, check, dissolved};
-        const LabelRepairStats more = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress);
+        const LabelRepairStats more = repairLabelsAround(r.mesh, used, p.repairParams, check, contacts, progress, &stars);
         if (more.relabelledVolume == 0) break;
         addLocalRepair(out.repair, more);
         ++out.repair.localRounds;
       }
-      if (dissolved && !check.badVertices.empty()) check.extraPieces = true; // the whole repair
+      whole = check.extraPieces || (dissolved && !check.badVertices.empty());
     }
-    if (check.extraPieces) {
+    if (whole) {
       progress.beginStage("image topology");
       out.image = std::make_shared<const LabelImageTopology>(analyzeLabelImage(argmax, progress));
       const LabelRepairStats local = out.repair;

@@ -701,10 +701,13 @@ std::vector<int32_t> neighboursAround(const TetMesh& mesh, const VertexStars& st
 } // namespace
 
 int64_t dissolvePieces(TetMesh& mesh, const std::vector<std::vector<int32_t>>& pieces,
-                       const std::vector<std::pair<int32_t, int32_t>>& contacts, LabelRepairStats& st) {
+                       const std::vector<std::pair<int32_t, int32_t>>& contacts, LabelRepairStats& st,
+                       const VertexStars* given) {
   Allowed allowed;
   for (const auto& [a, b] : contacts) allowed.pairs.insert(labelPairKey(a, b));
-  const VertexStars stars = vertexStars(mesh);
+  VertexStars own;
+  if (!given) own = vertexStars(mesh);
+  const VertexStars& stars = given ? *given : own;
   std::vector<int32_t> vertices, focus;
   for (const auto& p : pieces)
     for (int32_t t : p)
@@ -731,7 +734,7 @@ int64_t dissolvePieces(TetMesh& mesh, const std::vector<std::vector<int32_t>>& p
 
 LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
                                     const LabelRepairCheck& check, const std::vector<std::pair<int32_t, int32_t>>& contacts,
-                                    Progress& progress) {
+                                    Progress& progress, const VertexStars* given) {
   LabelRepairStats st;
   if (!check.needed()) {
     st.skipped = true;
@@ -743,7 +746,9 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
   const LabelImageTopology none; // connections and fragments do not run here
   Allowed allowed;
   for (const auto& [a, b] : contacts) allowed.pairs.insert(labelPairKey(a, b));
-  const VertexStars stars = vertexStars(mesh);
+  VertexStars own;
+  if (!given) own = vertexStars(mesh);
+  const VertexStars& stars = given ? *given : own;
   std::vector<int32_t> focus;
   const std::vector<int32_t> nb = neighboursAround(mesh, stars, check.badVertices, focus);
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);

@@ -139,11 +139,15 @@ LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& conta
 // Relabels each piece (tets) to the neighbouring label it shares the most face area with, among
 // those allowed next to all its neighbours (`contacts`); returns the pieces relabelled. For pieces
 // the repair itself cut off (CleavePipeline: a label that was in one piece before the local steps).
+struct VertexStars; // Algorithms/Quality/LabelTopology.h
+// Both take the mesh's vertex stars when the caller has them (relabelling leaves them as they
+// are, so rounds on one mesh share them); otherwise they build them.
 int64_t dissolvePieces(TetMesh& mesh, const std::vector<std::vector<int32_t>>& pieces,
-                       const std::vector<std::pair<int32_t, int32_t>>& contacts, LabelRepairStats& stats);
+                       const std::vector<std::pair<int32_t, int32_t>>& contacts, LabelRepairStats& stats,
+                       const VertexStars* stars = nullptr);
 LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
                                     const LabelRepairCheck& check, const std::vector<std::pair<int32_t, int32_t>>& contacts,
-                                    Progress& progress);
+                                    Progress& progress, const VertexStars* stars = nullptr);
 
 // Throws InputError for a negative fragment_voxels or a mesh failing validateStructure. `image`, when
 // given, is analyzeLabelImage(materials.dominantLabels()) computed before (it is the costly part of
