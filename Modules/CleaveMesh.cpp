@@ -44,11 +44,7 @@ public:
     const TetMesh& bgMesh = ctx.inputAs<TetMeshData>(1).value;
     requireCleaveMemory(bgMesh, ctx.getInt("volume_calibration") > 0);
     BackgroundMesh bg;
-    bg.mesh.points = bgMesh.points; // the cleaver warps a copy of the vertex positions only
-    ctx.progress().checkCancel();
-    bg.mesh.tets = bgMesh.tets;
-    ctx.progress().checkCancel();
-    bg.mesh.materials = bgMesh.materials;
+    bg.view = &bgMesh; // read in place: the cleaver copies only the vertex positions it warps
     auto it = bgMesh.pointFields.find("lattice_kind");
     if (it != bgMesh.pointFields.end() && it->second.components == 1) {
       bg.kind.reserve(bgMesh.numPoints());

@@ -34,6 +34,10 @@ inline constexpr double kBccBytesPerTet = 40.0;
 
 struct BackgroundMesh {
   TetMesh mesh;
+  // When set, the background's points and tets are *view's (a mesh owned elsewhere, e.g. a
+  // module's input) and `mesh` is unused: cleaving reads them and copies only what it changes.
+  const TetMesh* view = nullptr;
+  const TetMesh& tets() const { return view ? *view : mesh; }
   // Per vertex for BCC lattices (empty for unstructured backgrounds): decides which of
   // alpha_short / alpha_long applies to an edge.
   std::vector<LatticeVertexKind> kind;

@@ -34,7 +34,8 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
       r.materials[i].meshVolume = now[i].volume;
     }
   };
-  const LabelVolume argmax = mats.dominantLabels();
+  const auto argmaxShared = mats.sharedDominantLabels();
+  const LabelVolume& argmax = *argmaxShared;
   if (p.repair) {
     // The image's components only when the repair has something to do (labelRepairNeeded).
     progress.beginStage("repair check");
@@ -93,7 +94,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
     }
     if (out.repair.relabelledVolume > 0) refresh();
   }
-  const DomainBox box = domainBoxOf(bg.mesh, mats.grid().direction, mats.grid().origin);
+  const DomainBox box = domainBoxOf(bg.tets(), mats.grid().direction, mats.grid().origin);
   if (p.strip) {
     out.strip = stripExterior(r.mesh, argmax, out.image.get(), StripParams{*p.strip, p.stripCavities}, box, progress);
     r.stats.strippedTets = out.strip.strippedTets;

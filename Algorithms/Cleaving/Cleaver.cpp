@@ -20,6 +20,7 @@ CleaveResult Cleaver::run() {
   computeBoxConstraints();
   sample();
   buildInterfaces();
+  buildWarpStars();
   computeVertexAlphas();
   phaseVertices();
   phaseEdges();
@@ -27,6 +28,7 @@ CleaveResult Cleaver::run() {
   generalize();
   closure();
   CleaveResult r = stencil();
+  releaseInterfaces();
   if (p_.optimize_angles) optimizeAngles(r.mesh);
   progress_.beginStage("finish");
   TetMesh& out = r.mesh;

@@ -6,21 +6,6 @@ namespace tetflow::cleaving_detail {
 void Cleaver::computeBoxConstraints() {
   frame_ = mats_.grid().direction;
   const int64_t nv = static_cast<int64_t>(m_.points.size());
-  allStart_.assign(static_cast<size_t>(nv) + 1, 0);
-  for (size_t t = 0; t < m_.tets.size(); ++t) {
-    progress_.checkCancelEvery(int64_t(t));
-    for (int32_t v : m_.tets[t]) ++allStart_[v + 1];
-  }
-  for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
-  allList_.resize(static_cast<size_t>(allStart_[nv]));
-  {
-    std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
-    for (size_t t = 0; t < m_.tets.size(); ++t) {
-      progress_.checkCancelEvery(int64_t(t));
-      for (int32_t v : m_.tets[t]) allList_[fill[v]++] = static_cast<int32_t>(t);
-    }
-  }
-  progress_.checkCancel();
   fixedAxes_.assign(static_cast<size_t>(nv), 0);
   std::vector<Vec3> local(static_cast<size_t>(nv));
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
@@ -210,6 +195,65 @@ void Cleaver::buildInterfaces() {
   stats_.triples = ntr;
   stats_.quadruples = nq;
   progress_.checkCancel();
+}
+
+void Cleaver::buildWarpStars() {
+  // Only vertices of interface tets are ever warped (their points are the only ones that can
+  // violate them): the background tets around those, not around every vertex.
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  auto warpable = [&](int32_t v) { return vtStart_[v + 1] > vtStart_[v]; };
+  allStart_.assign(static_cast<size_t>(nv) + 1, 0);
+  for (int64_t t = 0; t < nt; ++t) {
+    progress_.checkCancelEvery(t);
+    for (int32_t v : m_.tets[t])
+      if (warpable(v)) ++allStart_[v + 1];
+  }
+  for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
+  allList_.resize(static_cast<size_t>(allStart_[nv]));
+  std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
+  for (int64_t t = 0; t < nt; ++t) {
+    progress_.checkCancelEvery(t);
+    for (int32_t v : m_.tets[t])
+      if (warpable(v)) allList_[fill[v]++] = static_cast<int32_t>(t);
+  }
+}
+
+void Cleaver::releaseInterfaces() {
+  // What the stencil needed and the angle optimisation does not: freed before it allocates.
+  auto drop = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  drop(pos_);
+  drop(label_);
+  drop(sampleStart_);
+  drop(samples_);
+  resampled_.clear();
+  drop(vertexAlpha_);
+  drop(allStart_);
+  drop(allList_);
+  drop(itet_);
+  drop(bgToInterface_);
+  drop(tetEdge_);
+  drop(tetFace_);
+  drop(edgeV_);
+  drop(faceV_);
+  drop(cutT_);
+  drop(cutAlias_);
+  drop(cutReal_);
+  drop(triB_);
+  drop(triAlias_);
+  drop(triReal_);
+  drop(triOverride_);
+  drop(quadB_);
+  drop(quadAlias_);
+  drop(quadReal_);
+  drop(vtStart_);
+  drop(etStart_);
+  drop(ftStart_);
+  drop(vtList_);
+  drop(etList_);
+  drop(ftList_);
+  drop(faceQueued_);
+  drop(tetQueued_);
 }
 
 } // namespace tetflow::cleaving_detail

@@ -84,7 +84,7 @@ inline double alphaFraction(double a) { return std::clamp(a, 0.0, 0.49); }
 class Cleaver {
 public:
   Cleaver(const BackgroundMesh& bg, const MaterialSet& mats, const CleaveParams& p, Progress& progress)
-      : bg_(bg), m_(bg.mesh), mats_(mats), p_(p), progress_(progress), flags_(buildFlags()),
+      : bg_(bg), m_(bg.tets()), mats_(mats), p_(p), progress_(progress), flags_(buildFlags()),
         exact_(p.interface_points == CleaveParams::InterfacePoints::Exact ||
                (p.interface_points == CleaveParams::InterfacePoints::Auto && !bg.kind.empty())) {}
 
@@ -121,7 +121,8 @@ private:
     }
     return false;
   }
-  // All background tets around each vertex (CSR), to keep warps from flattening any of them.
+  // All background tets around each vertex of an interface tet (CSR; empty for the others), to
+  // keep warps from flattening any of them.
   std::vector<int64_t> allStart_;
   std::vector<int32_t> allList_;
   // Largest fraction (1, 1/2, 1/4, ...) of the move to `target` that keeps every background tet
@@ -502,6 +503,8 @@ private:
   // ---- stages ----
   void sample();
   void buildInterfaces();
+  void buildWarpStars();    // allStart_/allList_, after buildInterfaces
+  void releaseInterfaces(); // after the stencil
   void computeVertexAlphas();
   void phaseVertices();
   void phaseEdges();

@@ -742,7 +742,8 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
   }
   progress.beginStage("repair contacts");
   st.local = true;
-  const LabelVolume labels = materials.dominantLabels();
+  const auto shared = materials.sharedDominantLabels();
+  const LabelVolume& labels = *shared;
   const LabelImageTopology none; // connections and fragments do not run here
   Allowed allowed;
   for (const auto& [a, b] : contacts) allowed.pairs.insert(labelPairKey(a, b));
@@ -773,7 +774,8 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
                                !params.points)) return st;
   const int64_t n = static_cast<int64_t>(mesh.numTets());
 
-  const LabelVolume labels = materials.dominantLabels();
+  const auto shared = materials.sharedDominantLabels();
+  const LabelVolume& labels = *shared;
   if (!image) {
     progress.beginStage("repair check");
     const auto contacts = labelContactPairs(labels);

@@ -58,6 +58,11 @@ public:
   // The input as labels on grid(): the label volume itself for LabelMaterials; for indicator
   // functions the label of the largest one per voxel (ties to the lower material index).
   virtual LabelVolume dominantLabels() const = 0;
+  // The same, shared: the label volume itself for LabelMaterials (no copy of a volume that may be
+  // hundreds of megabytes), computed for the others.
+  virtual std::shared_ptr<const LabelVolume> sharedDominantLabels() const {
+    return std::make_shared<const LabelVolume>(dominantLabels());
+  }
 
 protected:
   std::vector<int32_t> labels_;
@@ -77,6 +82,7 @@ public:
   void sample(const Vec3& p, std::vector<MaterialSample>& out) const override;
   std::string describe() const override;
   LabelVolume dominantLabels() const override { return *volume_; }
+  std::shared_ptr<const LabelVolume> sharedDominantLabels() const override { return volume_; }
   double blendSigma() const { return sigma_; }
 
 private:

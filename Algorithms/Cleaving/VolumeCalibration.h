@@ -52,6 +52,7 @@ public:
   float absentValue() const override { return base_.absentValue(); }
   std::string describe() const override;
   LabelVolume dominantLabels() const override { return base_.dominantLabels(); }
+  std::shared_ptr<const LabelVolume> sharedDominantLabels() const override { return base_.sharedDominantLabels(); }
 
 private:
   const MaterialSet& base_;

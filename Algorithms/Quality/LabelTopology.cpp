@@ -182,33 +182,41 @@ struct BucketFace {
   }
 };
 
-} // namespace
+std::array<int32_t, 3> sortedTetFace(const TetMesh& mesh, int64_t t, int f) {
+  const auto& q = mesh.tets[static_cast<size_t>(t)];
+  std::array<int32_t, 3> v{q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
+  if (v[0] > v[1]) std::swap(v[0], v[1]);
+  if (v[1] > v[2]) std::swap(v[1], v[2]);
+  if (v[0] > v[1]) std::swap(v[0], v[1]);
+  return v;
+}
 
-std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) {
-  // Faces bucketed by their smallest vertex (a counting sort, linear), then each small bucket
-  // sorted and scanned: O(n) apart from the buckets' own sorts.
+// The buckets hold only 4 * tet + face (Index: 4 bytes while 4 n fits in 32 bits); a bucket's
+// other two vertices are read back from the tets when it is matched. Writing 16 bytes per face
+// took more time (fresh pages) than reading the tets again, and four times the memory.
+template <class Index>
+std::vector<int32_t> matchFaces(const TetMesh& mesh, Progress& progress) {
   const int64_t n = static_cast<int64_t>(mesh.numTets());
   const size_t nP = mesh.numPoints();
-  auto sortedFace = [&](int64_t t, int f) {
-    const auto& q = mesh.tets[static_cast<size_t>(t)];
-    std::array<int32_t, 3> v{q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
-    std::sort(v.begin(), v.end());
-    return v;
-  };
   std::vector<int64_t> offset(nP + 1, 0);
   LoopCancel countCancel(progress);
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < n; ++t) {
     if (countCancel.skip(t)) continue;
+    const auto& q = mesh.tets[static_cast<size_t>(t)];
+    const int32_t lo01 = std::min(q[0], q[1]), lo23 = std::min(q[2], q[3]);
+    // Face f omits vertex f: its smallest vertex is the smallest of the other three.
+    const int32_t smallest[4] = {std::min(q[1], lo23), std::min(q[0], lo23), std::min(lo01, q[3]),
+                                 std::min(lo01, q[2])};
     for (int f = 0; f < 4; ++f)
-      std::atomic_ref<int64_t>(offset[static_cast<size_t>(sortedFace(t, f)[0]) + 1]).fetch_add(1, std::memory_order_relaxed);
+      std::atomic_ref<int64_t>(offset[static_cast<size_t>(smallest[f]) + 1]).fetch_add(1, std::memory_order_relaxed);
   }
   countCancel.rethrow();
   for (size_t p = 0; p < nP; ++p) offset[p + 1] += offset[p];
   progress.checkCancel();
   // Not value-initialised: every slot is written by the fill below, whose threads then touch the
-  // pages first (zeroing 16 bytes per face up front took longer than the whole fill).
-  const auto faces = std::make_unique_for_overwrite<BucketFace[]>(static_cast<size_t>(4 * n));
+  // pages first.
+  const auto faces = std::make_unique_for_overwrite<Index[]>(static_cast<size_t>(4 * n));
   {
     // Filled in any order; every bucket is sorted completely below, so the result is the same.
     std::vector<int64_t> pos(offset.begin(), offset.end() - 1);
@@ -216,11 +224,14 @@ std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) 
 #pragma omp parallel for schedule(static)
     for (int64_t t = 0; t < n; ++t) {
       if (fillCancel.skip(t)) continue;
+      const auto& q = mesh.tets[static_cast<size_t>(t)];
+      const int32_t lo01 = std::min(q[0], q[1]), lo23 = std::min(q[2], q[3]);
+      const int32_t smallest[4] = {std::min(q[1], lo23), std::min(q[0], lo23), std::min(lo01, q[3]),
+                                   std::min(lo01, q[2])};
       for (int f = 0; f < 4; ++f) {
-        const auto v = sortedFace(t, f);
         const int64_t at =
-            std::atomic_ref<int64_t>(pos[static_cast<size_t>(v[0])]).fetch_add(1, std::memory_order_relaxed);
-        faces[static_cast<size_t>(at)] = {v[1], v[2], 4 * t + f};
+            std::atomic_ref<int64_t>(pos[static_cast<size_t>(smallest[f])]).fetch_add(1, std::memory_order_relaxed);
+        faces[static_cast<size_t>(at)] = static_cast<Index>(4 * t + f);
       }
     }
     fillCancel.rethrow();
@@ -228,26 +239,44 @@ std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) 
   progress.checkCancel();
   std::vector<int32_t> nb(static_cast<size_t>(4 * n), kNoNeighbour);
   LoopCancel matchCancel(progress);
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
-    if (matchCancel.skip(p)) continue;
-    BucketFace* const first = faces.get() + offset[static_cast<size_t>(p)];
-    BucketFace* const last = faces.get() + offset[static_cast<size_t>(p) + 1];
-    std::sort(first, last);
-    for (auto i = first; i != last;) {
-      auto j = i + 1;
-      while (j != last && j->b == i->b && j->c == i->c) ++j;
-      if (j - i == 2) {
-        nb[static_cast<size_t>(i->tf)] = static_cast<int32_t>((i + 1)->tf / 4);
-        nb[static_cast<size_t>((i + 1)->tf)] = static_cast<int32_t>(i->tf / 4);
-      } else if (j - i > 2) {
-        for (auto a = i; a != j; ++a) nb[static_cast<size_t>(a->tf)] = kCrowdedFace;
+#pragma omp parallel
+  {
+    std::vector<BucketFace> bucket;
+#pragma omp for schedule(dynamic, 4096)
+    for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
+      if (matchCancel.skip(p)) continue;
+      bucket.clear();
+      for (int64_t i = offset[static_cast<size_t>(p)]; i < offset[static_cast<size_t>(p) + 1]; ++i) {
+        const int64_t tf = static_cast<int64_t>(faces[static_cast<size_t>(i)]);
+        const auto v = sortedTetFace(mesh, tf / 4, static_cast<int>(tf % 4));
+        bucket.push_back({v[1], v[2], tf});
       }
-      i = j;
+      std::sort(bucket.begin(), bucket.end());
+      for (auto i = bucket.begin(); i != bucket.end();) {
+        auto j = i + 1;
+        while (j != bucket.end() && j->b == i->b && j->c == i->c) ++j;
+        if (j - i == 2) {
+          nb[static_cast<size_t>(i->tf)] = static_cast<int32_t>((i + 1)->tf / 4);
+          nb[static_cast<size_t>((i + 1)->tf)] = static_cast<int32_t>(i->tf / 4);
+        } else if (j - i > 2) {
+          for (auto a = i; a != j; ++a) nb[static_cast<size_t>(a->tf)] = kCrowdedFace;
+        }
+        i = j;
+      }
     }
   }
   matchCancel.rethrow();
   return nb;
+}
+
+} // namespace
+
+std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress) {
+  // Faces bucketed by their smallest vertex (a counting sort, linear), then each small bucket
+  // sorted and scanned: O(n) apart from the buckets' own sorts.
+  if (4 * static_cast<uint64_t>(mesh.numTets()) <= std::numeric_limits<uint32_t>::max())
+    return matchFaces<uint32_t>(mesh, progress);
+  return matchFaces<uint64_t>(mesh, progress);
 }
 
 Vec3 tetCentroid(const TetMesh& m, size_t t) {

@@ -23,8 +23,8 @@ inline constexpr int32_t kNoNeighbour = -1;  // across a boundary face
 inline constexpr int32_t kCrowdedFace = -2;  // across a face of more than two tets
 
 // nb[4 t + f] = the tet across face f of tet t, or kNoNeighbour / kCrowdedFace. Faces are bucketed
-// by their smallest vertex and matched within buckets (in parallel): O(n), 16 bytes per face while
-// it runs. Checks cancellation.
+// by their smallest vertex and matched within buckets (in parallel): O(n), 4 bytes per face (8 from
+// 2^30 tets on) while it runs. Checks cancellation.
 std::vector<int32_t> tetFaceNeighbours(const TetMesh& mesh, Progress& progress);
 
 Vec3 tetCentroid(const TetMesh& m, size_t t);
