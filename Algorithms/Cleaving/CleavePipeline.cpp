@@ -22,6 +22,18 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
   CleavePipelineResult out;
   CleaveParams cp = p.cleave;
   cp.strip_exterior.reset(); // stripped after the repair, below
+  const auto argmaxShared = mats.sharedDominantLabels();
+  const LabelVolume& argmax = *argmaxShared;
+  // The label stripped below is not cleaved where it is deep in its exterior (CleaveParams::
+  // cull_exterior): those tets would be output as they are and then stripped. Not with volume
+  // calibration, whose repeated cleaves and repairs compare whole meshes.
+  std::optional<ExteriorTest> exterior;
+  if (p.strip && p.cull && p.calibration_rounds == 0) {
+    progress.beginStage("exterior components");
+    exterior.emplace(argmax, StripParams{*p.strip, p.stripCavities}, progress);
+    cp.cull_exterior = *p.strip;
+    cp.cull_exterior_at = [&exterior](const Vec3& x) { return (*exterior)(x); };
+  }
   CleaveResult& r = out.cleaved;
   r = p.calibration_rounds > 0 ? cleaveCalibrated(bg, mats, cp, p.calibration_rounds, p.repair ? &p.repairParams : nullptr,
                                                   progress, out.calibration, out.calibrated)
@@ -34,13 +46,13 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
       r.materials[i].meshVolume = now[i].volume;
     }
   };
-  const auto argmaxShared = mats.sharedDominantLabels();
-  const LabelVolume& argmax = *argmaxShared;
+  exterior.reset();
+  const TetJoins* joins = r.exteriorJoins.empty() ? nullptr : &r.exteriorJoins;
   if (p.repair) {
     // The image's components only when the repair has something to do (labelRepairNeeded).
     progress.beginStage("repair check");
     LabelContactOracle oracle(argmax); // the image's contacts, scanned for only when needed
-    LabelRepairCheck check = checkLabelRepair(r.mesh, oracle, progress);
+    LabelRepairCheck check = checkLabelRepair(r.mesh, oracle, progress, joins);
     const auto& contacts = check.needed() ? oracle.all() : std::vector<std::pair<int32_t, int32_t>>{};
     progress.endStage();
     bool whole = check.extraPieces; // the whole repair, below
@@ -64,10 +76,10 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
       bool dissolved = false;
       for (int round = 1; out.repair.relabelledVolume > 0; ++round) {
         progress.beginStage("repair check");
-        check = checkLabelRepair(r.mesh, contacts, progress);
+        check = checkLabelRepair(r.mesh, contacts, progress, joins);
         if (check.extraPieces && !check.largeExtraPieces) {
           dissolved = dissolvePieces(r.mesh, check.smallPieces, contacts, out.repair, &stars) > 0 || dissolved;
-          check = checkLabelRepair(r.mesh, contacts, progress);
+          check = checkLabelRepair(r.mesh, contacts, progress, joins);
         }
         if (round > 1 && (check.extraPieces || check.badVertices.size() >= saved.check.badVertices.size())) {
           r.mesh.materials.swap(saved.materials); // the further round did not help
@@ -89,15 +101,20 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
       progress.beginStage("image topology");
       out.image = std::make_shared<const LabelImageTopology>(analyzeLabelImage(argmax, progress));
       const LabelRepairStats local = out.repair;
-      out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get());
+      out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get(), joins);
       out.repair.relabelledVolume += local.relabelledVolume;
     }
     if (out.repair.relabelledVolume > 0) refresh();
   }
   const DomainBox box = domainBoxOf(bg.tets(), mats.grid().direction, mats.grid().origin);
   if (p.strip) {
-    out.strip = stripExterior(r.mesh, argmax, out.image.get(), StripParams{*p.strip, p.stripCavities}, box, progress);
+    out.strip = stripExterior(r.mesh, argmax, out.image.get(), StripParams{*p.strip, p.stripCavities}, box, progress,
+                              joins);
+    // What was culled was stripped before it was meshed.
+    out.strip.strippedTets += r.stats.culledTets;
+    out.strip.strippedVolume += r.stats.culledVolume;
     r.stats.strippedTets = out.strip.strippedTets;
+    std::vector<std::pair<int32_t, int32_t>>().swap(r.exteriorJoins); // tet numbers of the mesh before
     for (auto& m : r.materials)
       if (m.label == *p.strip) {
         m.inputVolume = out.strip.cavityVolume; // what was meant to be meshed

@@ -35,6 +35,11 @@ struct CleavePipelineParams {
   LabelRepairParams repairParams = withPointContacts(); // CleaveMesh's defaults
   std::optional<int32_t> strip;     // label whose exterior is removed
   bool stripCavities = false;
+  // With `strip`: the background tets deep in the label's exterior are left out of the cleave
+  // (CleaveParams::cull_exterior); the repair and the stripping see the pieces around them as
+  // joined through them, and the stripping counts them as stripped. The mesh is the one without
+  // culling (on lattices: identical; the tests compare), made in less time and memory.
+  bool cull = true;
   bool correct = true;
   VolumeCorrectionParams correction;
 };

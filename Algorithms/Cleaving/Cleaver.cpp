@@ -19,6 +19,7 @@ CleaveResult Cleaver::run() {
   stats_.backgroundTets = static_cast<int64_t>(m_.tets.size());
   computeBoxConstraints();
   sample();
+  cullExterior();
   buildInterfaces();
   buildWarpStars();
   computeVertexAlphas();
@@ -28,6 +29,7 @@ CleaveResult Cleaver::run() {
   generalize();
   closure();
   CleaveResult r = stencil();
+  joinAroundCulled(r);
   releaseInterfaces();
   if (p_.optimize_angles) optimizeAngles(r.mesh);
   progress_.beginStage("finish");
@@ -115,6 +117,10 @@ void writeCleaveReport(const CleaveResult& r, Report& rep) {
   rep.set("limited_warps", ReportValue(s.limitedWarps));
   rep.set("optimized_vertices", ReportValue(s.optimizedVertices));
   if (s.strippedTets) rep.set("stripped_tets", ReportValue(s.strippedTets));
+  if (s.culledTets) {
+    rep.set("culled_tets", ReportValue(s.culledTets));
+    rep.set("culled_mm3", ReportValue(s.culledVolume));
+  }
   std::string present, lost;
   for (const auto& m : r.materials) {
     const std::string key = "material_" + std::to_string(m.label);

@@ -43,6 +43,7 @@
 // shortest altitude of the incident tets (§5.5.2). alpha_short = alpha_long = 0 gives plain
 // stencilling (only interface points exactly on a lower simplex are snapped).
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -74,6 +75,15 @@ struct CleaveParams {
   enum class InterfacePoints : uint8_t { Auto = 0, Exact = 1, Linear = 2 };
   InterfacePoints interface_points = InterfacePoints::Auto;
   double interface_tolerance = 0.01; // mm
+  // Leave out the background tets deep in the exterior of this label (CleavePipeline sets it when
+  // it strips the label afterwards): a tet goes when each of its vertices carries the label, so
+  // does every vertex within two edges of it (no interface point, warp or stencilled tet of
+  // another label comes near), and cull_exterior_at (when set) says it lies in the label's
+  // exterior. Such a tet would be output unchanged and stripped; the tets kept around the hole
+  // it leaves carry the label, and CleaveResult::exteriorJoins says which of them are connected
+  // through it.
+  std::optional<int32_t> cull_exterior;
+  std::function<bool(const Vec3&)> cull_exterior_at;
 };
 
 struct CleaveStats {
@@ -85,6 +95,8 @@ struct CleaveStats {
   int64_t limitedWarps = 0;
   int64_t optimizedVertices = 0; // moved by the angle optimization  // warps cut back so no background tet loses 90 % of its volume
   int64_t strippedTets = 0;
+  int64_t culledTets = 0;     // background tets left out (cull_exterior)
+  double culledVolume = 0.0;  // mm^3
 };
 
 struct MaterialOutcome {
@@ -100,6 +112,9 @@ struct CleaveResult {
   TetMesh mesh;
   CleaveStats stats;
   std::vector<MaterialOutcome> materials; // one per input material, in label order
+  // With cull_exterior: pairs of output tets (of the culled label) that touch one connected part
+  // of the culled region, chained, so that joining each pair joins every piece around that part.
+  std::vector<std::pair<int32_t, int32_t>> exteriorJoins;
 };
 
 // Tets and volume [mm^3] of each material of `mesh`, by position in `labels`; tets whose label is

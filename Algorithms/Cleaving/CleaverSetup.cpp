@@ -219,11 +219,70 @@ void Cleaver::buildWarpStars() {
   }
 }
 
+void Cleaver::cullExterior() {
+  if (!p_.cull_exterior) return;
+  const auto& labels = mats_.labels();
+  const auto found = std::find(labels.begin(), labels.end(), *p_.cull_exterior);
+  if (found == labels.end()) return;
+  progress_.beginStage("cull exterior");
+  const int32_t S = static_cast<int32_t>(found - labels.begin());
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  // Bit 0: a vertex of another label or one sharing a tet with one; bit 1: sharing a tet with such.
+  std::vector<uint8_t> near(static_cast<size_t>(nv), 0);
+  for (int ring = 0; ring < 2; ++ring) {
+    LoopCancel cancel(progress_);
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < nt; ++t) {
+      if (cancel.skip(t)) continue;
+      const auto& q = m_.tets[t];
+      bool mark = false;
+      for (int32_t v : q) mark = mark || (ring == 0 ? label_[v] != S : (near[v] & 1) != 0);
+      if (mark)
+        for (int32_t v : q)
+          std::atomic_ref<uint8_t>(near[v]).fetch_or(static_cast<uint8_t>(1u << ring), std::memory_order_relaxed);
+    }
+    cancel.rethrow();
+  }
+  // Deep vertices in the exterior: 1, others 0.
+  std::vector<uint8_t> deep(static_cast<size_t>(nv), 0);
+  LoopCancel testCancel(progress_);
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t v = 0; v < nv; ++v) {
+    if (testCancel.skip(v)) continue;
+    deep[v] = near[v] == 0 && (!p_.cull_exterior_at || p_.cull_exterior_at(m_.points[v]));
+  }
+  testCancel.rethrow();
+  cull_.assign(static_cast<size_t>(nt), 0);
+  // Volumes summed in fixed chunks, then in order: the same sum for any number of threads.
+  constexpr int64_t kChunk = 1 << 16;
+  const int64_t chunks = (nt + kChunk - 1) / kChunk;
+  std::vector<double> chunkVolume(static_cast<size_t>(chunks), 0.0);
+  int64_t culled = 0;
+#pragma omp parallel for schedule(static) reduction(+ : culled)
+  for (int64_t c = 0; c < chunks; ++c)
+    for (int64_t t = c * kChunk; t < std::min(nt, (c + 1) * kChunk); ++t) {
+      const auto& q = m_.tets[t];
+      if (deep[q[0]] && deep[q[1]] && deep[q[2]] && deep[q[3]]) {
+        cull_[t] = 1;
+        ++culled;
+        chunkVolume[c] += std::abs(signedTetVolume(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]]));
+      }
+    }
+  progress_.checkCancel();
+  double volume = 0.0;
+  for (double v : chunkVolume) volume += v;
+  stats_.culledTets = culled;
+  stats_.culledVolume = volume;
+  if (culled == 0) cull_.clear();
+}
+
 void Cleaver::releaseInterfaces() {
   // What the stencil needed and the angle optimisation does not: freed before it allocates.
   auto drop = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   drop(pos_);
   drop(label_);
+  drop(cull_);
   drop(sampleStart_);
   drop(samples_);
   resampled_.clear();

@@ -17,12 +17,14 @@
 #include <omp.h>
 #include "Algorithms/Core/CancellableSort.h"
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <deque>
 #include <optional>
 #include <sstream>
 #include <unordered_map>
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Quality/LabelTopology.h"
 #include "Algorithms/Quality/TetQuality.h"
 
 namespace tetflow::cleaving_detail {
@@ -159,6 +161,7 @@ private:
     return m_.points[v] + mul(frame_, l);
   }
 
+  std::vector<uint8_t> cull_;                    // background tet left out (empty: none)
   std::vector<int32_t> itet_;                    // interface tet -> background tet
   std::vector<int32_t> bgToInterface_;           // background tet -> interface tet or -1
   std::vector<std::array<int32_t, 6>> tetEdge_;  // interface tet -> edges
@@ -504,6 +507,8 @@ private:
   void sample();
   void buildInterfaces();
   void buildWarpStars();    // allStart_/allList_, after buildInterfaces
+  void cullExterior();      // cull_ (CleaveParams::cull_exterior), after sample
+  void joinAroundCulled(CleaveResult& r) const; // r.exteriorJoins, after the stencil
   void releaseInterfaces(); // after the stencil
   void computeVertexAlphas();
   void phaseVertices();

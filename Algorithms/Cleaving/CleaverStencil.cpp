@@ -57,6 +57,7 @@ CleaveResult Cleaver::stencil() {
       const auto& q = m_.tets[b];
       const int32_t it = bgToInterface_[b];
       if (it < 0) {
+        if (!cull_.empty() && cull_[b]) continue; // counts[b + 1] stays 0
         if (pass == 0) counts[b + 1] = 1;
         else {
           out.tets[counts[b]] = q;
@@ -91,6 +92,35 @@ CleaveResult Cleaver::stencil() {
     }
   }
   return r;
+}
+
+void Cleaver::joinAroundCulled(CleaveResult& r) const {
+  if (cull_.empty()) return;
+  const int64_t nv = static_cast<int64_t>(m_.points.size());
+  const int64_t nt = static_cast<int64_t>(m_.tets.size());
+  // The culled region's connected parts (through shared vertices), as sets of background vertices.
+  DisjointSets parts(static_cast<size_t>(nv));
+  std::vector<uint8_t> onCulled(static_cast<size_t>(nv), 0);
+  for (int64_t t = 0; t < nt; ++t) {
+    if (!cull_[t]) continue;
+    const auto& q = m_.tets[t];
+    for (int32_t v : q) onCulled[v] = 1;
+    parts.unite(q[0], q[1]);
+    parts.unite(q[0], q[2]);
+    parts.unite(q[0], q[3]);
+  }
+  // The first kept tet at each vertex of the culled region's boundary, chained per part.
+  std::vector<int32_t> firstTet(static_cast<size_t>(nv), -1), lastOfPart(static_cast<size_t>(nv), -1);
+  const TetMesh& out = r.mesh;
+  for (size_t t = 0; t < out.tets.size(); ++t)
+    for (int32_t v : out.tets[t])
+      if (v < nv && onCulled[v] && firstTet[v] < 0) firstTet[v] = static_cast<int32_t>(t);
+  for (int64_t v = 0; v < nv; ++v) {
+    if (firstTet[v] < 0) continue;
+    int32_t& last = lastOfPart[parts.find(static_cast<int32_t>(v))];
+    if (last >= 0 && last != firstTet[v]) r.exteriorJoins.emplace_back(last, firstTet[v]);
+    last = firstTet[v];
+  }
 }
 
 } // namespace tetflow::cleaving_detail

@@ -187,6 +187,7 @@ struct Steps {
   int64_t n;
   IndexFrame frame;
   const VertexStars* stars = nullptr; // the mesh's vertex stars when already built (else built where needed)
+  const TetJoins* joins = nullptr;    // pieces joined through a part left out (repairLabels)
 };
 
 void repairContacts(Steps& s) {
@@ -329,7 +330,7 @@ void repairConnections(Steps& s) {
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
-    DisjointSets sets = sameLabelPieces(mesh, nb);
+    DisjointSets sets = sameLabelPieces(mesh, nb, s.joins);
     progress.checkCancel();
     // The primary piece of every image component, then the other pieces that vote for one, with
     // their tets and the components they vote for.
@@ -577,7 +578,7 @@ void repairFragments(Steps& s) {
   std::vector<uint8_t> strayDone(size_t(n), 0); // a stray moves once
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
-    DisjointSets sets = sameLabelPieces(mesh, nb);
+    DisjointSets sets = sameLabelPieces(mesh, nb, s.joins);
     progress.checkCancel();
     // Pieces (by root), their volume, and the primary piece of every image component.
     std::vector<double> volume(mesh.numTets(), 0.0);
@@ -765,7 +766,7 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
 }
 
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
-                              Progress& progress, const LabelImageTopology* image) {
+                              Progress& progress, const LabelImageTopology* image, const TetJoins* joins) {
   if (!(params.fragment_voxels >= 0.0) || !std::isfinite(params.fragment_voxels))
     throw InputError("fragment_voxels must be a number >= 0");
   mesh.validateStructure("mesh");
@@ -779,7 +780,7 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   if (!image) {
     progress.beginStage("repair check");
     const auto contacts = labelContactPairs(labels);
-    const LabelRepairCheck check = checkLabelRepair(mesh, contacts, progress);
+    const LabelRepairCheck check = checkLabelRepair(mesh, contacts, progress, joins);
     if (!check.needed() || !check.extraPieces) return repairLabelsAround(mesh, materials, params, check, contacts, progress);
   }
   progress.beginStage(params.contacts || params.points ? "repair contacts" : "repair fragments");
@@ -791,7 +792,7 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
 
-  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, nullptr};
+  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, nullptr, joins};
   if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (params.points) repairPointContacts(s);
   if (params.connect) repairConnections(s);

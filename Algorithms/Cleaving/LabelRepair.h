@@ -111,8 +111,10 @@ struct LabelRepairCheck {
   std::vector<std::vector<int32_t>> smallPieces; // the tets of the others
   bool needed() const { return extraPieces || !badVertices.empty(); }
 };
+// `joins` (pairs of tets, LabelTopology.h: TetJoins), when given, connect pieces of one label
+// through a part of the mesh that was left out (CleavePipeline's culled exterior).
 LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
-                                  Progress& progress);
+                                  Progress& progress, const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr);
 // Which labels touch in an image (labelContactPairs), asked pair by pair: a pair is looked for
 // first in the voxels around the place it is asked about (a mixed vertex of the mesh, on the
 // interface between the two labels, where they touch when they touch at all), and the whole
@@ -132,7 +134,8 @@ private:
   std::vector<std::pair<int32_t, int32_t>> all_;
   bool scanned_ = false;
 };
-LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& contacts, Progress& progress);
+LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& contacts, Progress& progress,
+                                  const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr);
 // The repair when the check found no extra piece: the contacts, point contacts and edges steps on
 // the tets around the check's vertices only (no image components, no face adjacency of the whole
 // mesh). Nothing at all when the check found nothing.
@@ -153,8 +156,10 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
 // given, is analyzeLabelImage(materials.dominantLabels()) computed before (it is the costly part of
 // a repair that finds nothing to do).
 struct LabelImageTopology;
+// `joins` as for checkLabelRepair: the pieces the connections and fragments steps see.
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
-                              Progress& progress, const LabelImageTopology* image = nullptr);
+                              Progress& progress, const LabelImageTopology* image = nullptr,
+                              const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr);
 
 // repair_* keys: forbidden faces and area before and after, tets and pieces relabelled, volume.
 void writeLabelRepairReport(const LabelRepairStats& s, Report& report);

@@ -65,7 +65,8 @@ struct ConcurrentSets {
 // MakeTouch() gives, in each thread, a function touch(a, b, v): whether labels a and b touch in the
 // image (asked at the mixed vertex v).
 template <class MakeTouch>
-LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Progress& progress) {
+LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Progress& progress,
+                           const std::vector<std::pair<int32_t, int32_t>>* joins) {
   LabelRepairCheck check;
   const int64_t nt = int64_t(mesh.numTets());
   const int64_t np = int64_t(mesh.numPoints());
@@ -266,6 +267,14 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
     int32_t r = element(size_t(b), 0);
     for (int c = 1; c < 4; ++c) r = sets.unite(r, element(size_t(b), c));
   }
+  if (joins) { // tets joined through a part left out: their elements (a band tet's, or a vertex)
+    auto elementOfTet = [&](int32_t t) {
+      const auto it = std::lower_bound(band.begin(), band.end(), t);
+      return it != band.end() && *it == t ? element(size_t(it - band.begin()), 0) : tets[size_t(t)][0];
+    };
+    for (const auto& [a, b] : *joins)
+      if (mats[size_t(a)] == mats[size_t(b)]) sets.unite(elementOfTet(a), elementOfTet(b));
+  }
   progress.checkCancel();
   // One root per label: its tets are in one piece (the elements of a label are its tets' only).
   std::unordered_map<int32_t, int32_t> rootOfLabel;
@@ -312,7 +321,7 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
 } // namespace
 
 LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pair<int32_t, int32_t>>& contacts,
-                                  Progress& progress) {
+                                  Progress& progress, const std::vector<std::pair<int32_t, int32_t>>* joins) {
   return checkWith(
       mesh,
       [&] {
@@ -320,10 +329,11 @@ LabelRepairCheck checkLabelRepair(const TetMesh& mesh, const std::vector<std::pa
           return std::binary_search(contacts.begin(), contacts.end(), std::pair{std::min(a, b), std::max(a, b)});
         };
       },
-      progress);
+      progress, joins);
 }
 
-LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& contacts, Progress& progress) {
+LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& contacts, Progress& progress,
+                                  const std::vector<std::pair<int32_t, int32_t>>* joins) {
   return checkWith(
       mesh,
       [&] {
@@ -336,7 +346,7 @@ LabelRepairCheck checkLabelRepair(const TetMesh& mesh, LabelContactOracle& conta
           return seen.back().second;
         };
       },
-      progress);
+      progress, joins);
 }
 
 bool LabelContactOracle::touch(int32_t a, int32_t b, const Vec3& near) {

@@ -68,8 +68,52 @@ LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool pe
 }
 } // namespace
 
+ExteriorTest::ExteriorTest(const LabelVolume& labels, const StripParams& p, Progress& progress) : labels_(labels) {
+  LabelRows rows = labelRows(labels, p.label);
+  DisjointSets sets(rows.runs.size());
+  joinRuns(rows, sets, progress);
+  int32_t count = 0;
+  const std::vector<int32_t> compOfRun = runComponents(rows, sets, count);
+  std::vector<uint8_t> onBox(size_t(count), 0);
+  const int64_t nx = rows.nx, ny = rows.ny, nz = rows.nz;
+  for (int64_t r = 0; r < rows.rows(); ++r) {
+    const int64_t j = r % ny, k = r / ny;
+    const bool rowOnBox = j == 0 || j == ny - 1 || k == 0 || k == nz - 1;
+    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q)
+      if (rowOnBox || rows.runs[size_t(q)].i0 == 0 || rows.runs[size_t(q)].i1 == nx - 1) onBox[size_t(compOfRun[size_t(q)])] = 1;
+  }
+  start_ = std::move(rows.start);
+  i0_.resize(rows.runs.size());
+  i1_.resize(rows.runs.size());
+  exterior_.resize(rows.runs.size());
+  for (size_t q = 0; q < rows.runs.size(); ++q) {
+    i0_[q] = rows.runs[q].i0;
+    i1_[q] = rows.runs[q].i1;
+    exterior_[q] = p.cavities || onBox[size_t(compOfRun[q])];
+    if (exterior_[q]) exteriorVoxels_ += i1_[q] - i0_[q] + 1;
+  }
+}
+
+bool ExteriorTest::operator()(const Vec3& p) const {
+  const Vec3 c = IndexFrame{labels_.grid}.toIndex(p);
+  const auto& d = labels_.grid.dims;
+  int64_t x[3];
+  for (int a = 0; a < 3; ++a) {
+    const double r = std::round(c[a]);
+    if (!(r >= 0.0 && r <= double(d[a] - 1))) return false; // outside the volume (or not a number)
+    x[a] = int64_t(r);
+  }
+  const int64_t r = x[1] + d[1] * x[2];
+  const auto first = i1_.begin() + start_[size_t(r)], last = i1_.begin() + start_[size_t(r) + 1];
+  const auto it = std::lower_bound(first, last, int32_t(x[0])); // the first run ending at or after x
+  if (it == last) return false;
+  const size_t q = size_t(it - i1_.begin());
+  return i0_[q] <= x[0] && exterior_[q];
+}
+
 StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelImageTopology* image,
-                         const StripParams& p, const DomainBox& box, Progress& progress) {
+                         const StripParams& p, const DomainBox& box, Progress& progress,
+                         const std::vector<std::pair<int32_t, int32_t>>* joins) {
   progress.beginStage("strip exterior");
   mesh.validateStructure("strip exterior");
   StripStats st;
@@ -101,7 +145,7 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
     for (int64_t t = 0; t < nt; ++t) drop[size_t(t)] = mesh.materials[size_t(t)] == p.label;
   } else if (any) {
     const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
-    DisjointSets pieces = sameLabelPieces(mesh, nb);
+    DisjointSets pieces = sameLabelPieces(mesh, nb, joins);
     progress.checkCancel();
     const IndexFrame frame{labels.grid};
     // Per piece (root): exterior and cavity votes, and whether it has a face on the box.
@@ -123,6 +167,10 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
         if (common) onBox[size_t(root)] = 1;
       }
     }
+    if (joins) // joined through the exterior that was never meshed: as good as on the box
+      for (const auto& [a, b] : *joins)
+        for (const int32_t t : {a, b})
+          if (mesh.materials[size_t(t)] == p.label) onBox[size_t(pieces.find(t))] = 1;
     for (int64_t t = 0; t < nt; ++t) {
       if (mesh.materials[size_t(t)] != p.label) continue;
       const size_t root = size_t(pieces.find(int32_t(t)));

@@ -13,6 +13,8 @@
 // cavities (a piece that votes for nothing goes too). With `cavities` the label goes entirely.
 // Vertices used by no tet are removed afterwards (indices renumbered in order).
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "Algorithms/Core/Progress.h"
 #include "Algorithms/Core/Report.h"
@@ -39,9 +41,30 @@ struct StripStats {
 };
 
 // `image` may be given when already computed for `labels` (analyzeLabelImage); otherwise it is
-// computed here. Throws InputError for a mesh failing validateStructure.
+// computed here. `joins` (LabelTopology.h), when given, connect pieces of the label through a part
+// of the exterior that was never meshed (CleavePipeline's cull): a piece with such a join goes, as
+// one with a face on the box does. Throws InputError for a mesh failing validateStructure.
 StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelImageTopology* image,
-                         const StripParams& params, const DomainBox& box, Progress& progress);
+                         const StripParams& params, const DomainBox& box, Progress& progress,
+                         const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr);
+
+// Whether a point lies in the exterior of `params.label`: the voxel nearest to it carries the
+// label and is in one of its 26-connected components that reach the box (any of its components
+// with `params.cavities`), as stripExterior sees them. From the label's runs (LabelRuns.h): memory
+// for its runs, not per voxel. `labels` must outlive it.
+class ExteriorTest {
+public:
+  ExteriorTest(const LabelVolume& labels, const StripParams& params, Progress& progress);
+  bool operator()(const Vec3& p) const;
+  int64_t exteriorVoxels() const { return exteriorVoxels_; }
+
+private:
+  const LabelVolume& labels_;
+  std::vector<int64_t> start_;   // per row: its first run
+  std::vector<int32_t> i0_, i1_; // runs (of the label only)
+  std::vector<uint8_t> exterior_; // per run
+  int64_t exteriorVoxels_ = 0;
+};
 
 // Removes the vertices no tet uses, renumbering the rest in order (point fields follow).
 void removeUnusedVertices(TetMesh& mesh);

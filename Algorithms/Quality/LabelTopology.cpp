@@ -336,13 +336,16 @@ int32_t voteImageComponent(const LabelVolume& labels, const std::vector<int32_t>
   return vote;
 }
 
-DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb) {
+DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb, const TetJoins* joins) {
   DisjointSets sets(mesh.numTets());
   for (size_t t = 0; t < mesh.numTets(); ++t)
     for (int f = 0; f < 4; ++f) {
       const int32_t o = nb[4 * t + size_t(f)];
       if (o > int32_t(t) && mesh.materials[size_t(o)] == mesh.materials[t]) sets.unite(int32_t(t), o);
     }
+  if (joins)
+    for (const auto& [a, b] : *joins)
+      if (mesh.materials[size_t(a)] == mesh.materials[size_t(b)]) sets.unite(a, b);
   return sets;
 }
 

@@ -155,7 +155,11 @@ int32_t voteImageComponent(const LabelVolume& labels, const std::vector<int32_t>
 
 // Same-label pieces of a mesh: tets joined by faces (nb from tetFaceNeighbours) when their labels
 // are equal.
-DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb);
+// Pairs of tets that are connected although they share no face: through a part of the mesh that
+// was left out (cleaving's culled exterior, CleavePipeline.h). A pair joins pieces only while both
+// tets carry one label.
+using TetJoins = std::vector<std::pair<int32_t, int32_t>>;
+DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb, const TetJoins* joins = nullptr);
 
 // voteImageComponent for every tet (in parallel).
 std::vector<int32_t> tetVotes(const TetMesh& mesh, const LabelVolume& labels, const std::vector<int32_t>& comp);

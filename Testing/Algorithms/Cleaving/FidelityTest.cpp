@@ -170,6 +170,59 @@ TEST(Fidelity, RandomSegmentationsAtEveryCellSizeAndOffset) {
               100.0 * worst, 100.0 * worstAll);
 }
 
+// Culling the exterior before the cleave (CleavePipelineParams::cull) leaves the mesh as it was. The
+// cases: two objects apart in one exterior, one of them holding a pocket of the exterior's label
+// (so the stripping votes, and the exterior around each object is connected only through what was
+// culled), and random segmentations inside a wide margin of the stripped label; regular lattices
+// refined at thin layers, cells of 2 to 5 voxels at random offsets. With and without the cull: the
+// same points, tets and labels, the same repair and stripping figures; and tets were culled.
+TEST(Fidelity, CullingTheExteriorLeavesTheMeshAsItWas) {
+  std::mt19937 rng(47);
+  std::vector<LabelVolume> cases;
+  cases.push_back(makeVolume(44, [](double x, double y, double z) {
+    const double a = std::sqrt((x + 9) * (x + 9) + (y + 9) * (y + 9) + z * z); // a ball with a pocket
+    if (a < 3.0) return 0;
+    if (a < 8.0) return a < 5.0 ? 1 : 2;
+    if (std::abs(x - 10) < 6 && std::abs(y - 10) < 6 && std::abs(z) < 6) return std::abs(z) < 2 ? 3 : 2; // a box
+    return 0;
+  }));
+  for (int c = 0; c < 2; ++c) cases.push_back(withMargin(test::voronoiWithSheets(rng, 20), 10, 0));
+  int culledCases = 0, runs = 0;
+  for (size_t c = 0; c < cases.size(); ++c) {
+    const LabelVolume& v = cases[c];
+    const auto vol = std::make_shared<const LabelVolume>(v);
+    const LabelMaterials mats(vol, kDefaultBlendSigma);
+    const EdgeTopology thin(v);
+    for (double cell = 2.0 + 0.5 * double(c % 2); cell <= 5.0; cell += 1.0, ++runs) {
+      const double padding = double(rng() % 1000) / 1000.0;
+      SCOPED_TRACE(::testing::Message() << "case " << c << " cell " << cell << " padding " << padding);
+      NullProgress np;
+      const OctreeBccResult bg = generateThinLayerBcc(v.grid, BccParams{cell, padding}, OctreeBccParams{}, thin, np);
+      CleavePipelineParams pp;
+      pp.strip = 0;
+      const CleavePipelineResult on = cleavePipeline(bg.background, mats, pp, np);
+      pp.cull = false;
+      const CleavePipelineResult off = cleavePipeline(bg.background, mats, pp, np);
+      EXPECT_EQ(off.cleaved.stats.culledTets, 0);
+      culledCases += on.cleaved.stats.culledTets > 0;
+      const TetMesh& a = on.cleaved.mesh;
+      const TetMesh& b = off.cleaved.mesh;
+      ASSERT_EQ(a.numTets(), b.numTets());
+      ASSERT_EQ(a.numPoints(), b.numPoints());
+      EXPECT_TRUE(a.tets == b.tets);
+      EXPECT_TRUE(a.materials == b.materials);
+      EXPECT_TRUE(a.points == b.points);
+      EXPECT_EQ(on.repair.relabelledVolume, off.repair.relabelledVolume);
+      EXPECT_EQ(on.repair.local, off.repair.local);
+      EXPECT_EQ(on.strip.strippedTets, off.strip.strippedTets);
+      EXPECT_NEAR(on.strip.strippedVolume, off.strip.strippedVolume, 1e-9 * off.strip.strippedVolume);
+      EXPECT_EQ(on.strip.keptTets, off.strip.keptTets);
+      EXPECT_EQ(on.strip.cavityComponents, c == 0 ? 1 : off.strip.cavityComponents);
+    }
+  }
+  EXPECT_EQ(culledCases, runs); // every one culls something
+}
+
 // The label repair around the check's vertices (CleavePipeline) may take further rounds where its
 // first leaves bad vertices; a further round stays only when it leaves fewer and no extra piece.
 // On random segmentations (cells 2-6 voxels, random offsets): whenever the repair stayed local, the
