@@ -81,9 +81,22 @@ void Cleaver::buildInterfaces() {
   progress_.checkCancel();
   const int64_t ni = static_cast<int64_t>(itet_.size());
   stats_.interfaceTets = ni;
-  // Unique edges and faces of interface tets.
-  std::vector<uint64_t> ekeys(static_cast<size_t>(ni) * 6);
-  std::vector<std::array<int32_t, 3>> fkeys(static_cast<size_t>(ni) * 4);
+  // Unique edges and faces of interface tets: (key, slot) pairs sorted, then numbered in one sweep
+  // (ids in key order; no search per slot).
+  struct EdgeSlot {
+    uint64_t key;
+    uint32_t slot; // 6 t + e
+    bool operator<(const EdgeSlot& o) const { return key != o.key ? key < o.key : slot < o.slot; }
+  };
+  struct FaceSlot {
+    std::array<int32_t, 3> key;
+    uint32_t slot; // 4 t + f
+    bool operator<(const FaceSlot& o) const { return key != o.key ? key < o.key : slot < o.slot; }
+  };
+  if (ni > int64_t(std::numeric_limits<uint32_t>::max() / 6))
+    throw ProcessingError("cleaving: too many interface tets (" + std::to_string(ni) + ")");
+  std::vector<EdgeSlot> ekeys(static_cast<size_t>(ni) * 6);
+  std::vector<FaceSlot> fkeys(static_cast<size_t>(ni) * 4);
   LoopCancel keyCancel(progress_);
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < ni; ++t) {
@@ -92,41 +105,32 @@ void Cleaver::buildInterfaces() {
     for (int e = 0; e < 6; ++e) {
       uint32_t a = static_cast<uint32_t>(q[kEdgeVerts[e][0]]), b = static_cast<uint32_t>(q[kEdgeVerts[e][1]]);
       if (a > b) std::swap(a, b);
-      ekeys[t * 6 + e] = (uint64_t(a) << 32) | b;
+      ekeys[t * 6 + e] = {(uint64_t(a) << 32) | b, static_cast<uint32_t>(t * 6 + e)};
     }
     for (int f = 0; f < 4; ++f) {
       std::array<int32_t, 3> k = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
       std::sort(k.begin(), k.end());
-      fkeys[t * 4 + f] = k;
+      fkeys[t * 4 + f] = {k, static_cast<uint32_t>(t * 4 + f)};
     }
   }
   keyCancel.rethrow();
-  std::vector<uint64_t> eu = ekeys;
-  cancellableSort(eu, progress_);
-  eu.erase(std::unique(eu.begin(), eu.end()), eu.end());
-  progress_.checkCancel();
-  std::vector<std::array<int32_t, 3>> fu = fkeys;
-  cancellableSort(fu, progress_);
-  fu.erase(std::unique(fu.begin(), fu.end()), fu.end());
-  progress_.checkCancel();
-  edgeV_.resize(eu.size());
-  for (size_t e = 0; e < eu.size(); ++e)
-    edgeV_[e] = {static_cast<int32_t>(eu[e] >> 32), static_cast<int32_t>(eu[e] & 0xffffffffu)};
-  faceV_ = fu;
+  cancellableSort(ekeys, progress_);
+  cancellableSort(fkeys, progress_);
   tetEdge_.resize(static_cast<size_t>(ni));
   tetFace_.resize(static_cast<size_t>(ni));
-  LoopCancel lookupCancel(progress_);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < ni; ++t) {
-    if (lookupCancel.skip(t)) continue;
-    for (int e = 0; e < 6; ++e)
-      tetEdge_[t][e] = static_cast<int32_t>(std::lower_bound(eu.begin(), eu.end(), ekeys[t * 6 + e]) - eu.begin());
-    for (int f = 0; f < 4; ++f)
-      tetFace_[t][f] = static_cast<int32_t>(std::lower_bound(fu.begin(), fu.end(), fkeys[t * 4 + f]) - fu.begin());
+  for (size_t i = 0; i < ekeys.size(); ++i) {
+    if (i == 0 || ekeys[i].key != ekeys[i - 1].key)
+      edgeV_.push_back({static_cast<int32_t>(ekeys[i].key >> 32), static_cast<int32_t>(ekeys[i].key & 0xffffffffu)});
+    tetEdge_[ekeys[i].slot / 6][ekeys[i].slot % 6] = static_cast<int32_t>(edgeV_.size() - 1);
   }
-  lookupCancel.rethrow();
-  std::vector<uint64_t>().swap(ekeys);
-  std::vector<std::array<int32_t, 3>>().swap(fkeys);
+  std::vector<EdgeSlot>().swap(ekeys);
+  progress_.checkCancel();
+  for (size_t i = 0; i < fkeys.size(); ++i) {
+    if (i == 0 || fkeys[i].key != fkeys[i - 1].key) faceV_.push_back(fkeys[i].key);
+    tetFace_[fkeys[i].slot / 4][fkeys[i].slot % 4] = static_cast<int32_t>(faceV_.size() - 1);
+  }
+  std::vector<FaceSlot>().swap(fkeys);
+  progress_.checkCancel();
 
   // CSR adjacency: vertex -> tets, edge -> tets, face -> tets.
   auto buildCsr = [&](size_t n, int per, auto key, std::vector<int64_t>& start, std::vector<int32_t>& list) {
