@@ -48,6 +48,10 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
   };
   exterior.reset();
   const TetJoins* joins = r.exteriorJoins.empty() ? nullptr : &r.exteriorJoins;
+  // The mesh's face neighbours once a step has computed them: the repair relabels, the stripping
+  // renumbers them with the tets it keeps, the correction moves vertices; none changes which tets
+  // share a face.
+  std::vector<int32_t> faceNeighbours;
   if (p.repair) {
     // The image's components only when the repair has something to do (labelRepairNeeded).
     progress.beginStage("repair check");
@@ -101,7 +105,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
       progress.beginStage("image topology");
       out.image = std::make_shared<const LabelImageTopology>(analyzeLabelImage(argmax, progress));
       const LabelRepairStats local = out.repair;
-      out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get(), joins);
+      out.repair = repairLabels(r.mesh, used, p.repairParams, progress, out.image.get(), joins, &faceNeighbours);
       out.repair.relabelledVolume += local.relabelledVolume;
     }
     if (out.repair.relabelledVolume > 0) refresh();
@@ -109,7 +113,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
   const DomainBox box = domainBoxOf(bg.tets(), mats.grid().direction, mats.grid().origin);
   if (p.strip) {
     out.strip = stripExterior(r.mesh, argmax, out.image.get(), StripParams{*p.strip, p.stripCavities}, box, progress,
-                              joins);
+                              joins, &faceNeighbours);
     // What was culled was stripped before it was meshed.
     out.strip.strippedTets += r.stats.culledTets;
     out.strip.strippedVolume += r.stats.culledVolume;
@@ -125,7 +129,7 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
   if (p.correct) {
     std::vector<double> targets;
     for (const auto& m : r.materials) targets.push_back(m.stripped ? 0.0 : m.inputVolume);
-    out.correction = correctVolumes(r.mesh, mats.labels(), targets, box, p.correction, progress);
+    out.correction = correctVolumes(r.mesh, mats.labels(), targets, box, p.correction, progress, &faceNeighbours);
     refresh();
   }
   return out;

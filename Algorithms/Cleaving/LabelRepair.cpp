@@ -766,7 +766,8 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
 }
 
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
-                              Progress& progress, const LabelImageTopology* image, const TetJoins* joins) {
+                              Progress& progress, const LabelImageTopology* image, const TetJoins* joins,
+                              std::vector<int32_t>* faceNeighbours) {
   if (!(params.fragment_voxels >= 0.0) || !std::isfinite(params.fragment_voxels))
     throw InputError("fragment_voxels must be a number >= 0");
   mesh.validateStructure("mesh");
@@ -789,7 +790,9 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   const LabelImageTopology& img = image ? *image : own;
   Allowed allowed;
   for (const auto& [k, unused] : img.contacts) allowed.pairs.insert(k);
-  const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
+  std::vector<int32_t> ownNb;
+  std::vector<int32_t>& nb = faceNeighbours ? *faceNeighbours : ownNb;
+  if (nb.empty()) nb = tetFaceNeighbours(mesh, progress);
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
 
   Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, nullptr, joins};

@@ -157,9 +157,12 @@ LabelRepairStats repairLabelsAround(TetMesh& mesh, const MaterialSet& materials,
 // a repair that finds nothing to do).
 struct LabelImageTopology;
 // `joins` as for checkLabelRepair: the pieces the connections and fragments steps see.
+// `faceNeighbours`, when given, receives the mesh's tetFaceNeighbours when the repair computed them
+// (it relabels only, so they stay valid for the steps after it); when given filled, they are used.
 LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const LabelRepairParams& params,
                               Progress& progress, const LabelImageTopology* image = nullptr,
-                              const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr);
+                              const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr,
+                              std::vector<int32_t>* faceNeighbours = nullptr);
 
 // repair_* keys: forbidden faces and area before and after, tets and pieces relabelled, volume.
 void writeLabelRepairReport(const LabelRepairStats& s, Report& report);

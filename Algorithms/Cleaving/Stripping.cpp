@@ -113,7 +113,8 @@ bool ExteriorTest::operator()(const Vec3& p) const {
 
 StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelImageTopology* image,
                          const StripParams& p, const DomainBox& box, Progress& progress,
-                         const std::vector<std::pair<int32_t, int32_t>>* joins) {
+                         const std::vector<std::pair<int32_t, int32_t>>* joins,
+                         std::vector<int32_t>* faceNeighbours) {
   progress.beginStage("strip exterior");
   mesh.validateStructure("strip exterior");
   StripStats st;
@@ -144,8 +145,10 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
   if (any && (p.cavities || st.cavityVoxels == 0)) { // everything of the label is exterior
     for (int64_t t = 0; t < nt; ++t) drop[size_t(t)] = mesh.materials[size_t(t)] == p.label;
   } else if (any) {
-    const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
-    DisjointSets pieces = sameLabelPieces(mesh, nb, joins);
+    std::vector<int32_t> own;
+    std::vector<int32_t>& nbr = faceNeighbours ? *faceNeighbours : own; // renumbered below
+    if (nbr.empty()) nbr = tetFaceNeighbours(mesh, progress);
+    DisjointSets pieces = sameLabelPieces(mesh, nbr, joins);
     progress.checkCancel();
     const IndexFrame frame{labels.grid};
     // Per piece (root): exterior and cavity votes, and whether it has a face on the box.
@@ -159,7 +162,7 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
       if (c >= 0 && !image->comps[size_t(c)].touchesBox) inside[size_t(root)] += v;
       else if (c >= 0) outside[size_t(root)] += v;
       for (int f = 0; f < 4 && !onBox[size_t(root)]; ++f) {
-        if (nb[4 * size_t(t) + size_t(f)] != kNoNeighbour) continue;
+        if (nbr[4 * size_t(t) + size_t(f)] != kNoNeighbour) continue;
         const auto& q = mesh.tets[size_t(t)];
         const uint8_t common = box.fixedAxes(mesh.points[size_t(q[kTetFaceVertices[f][0]])]) &
                                box.fixedAxes(mesh.points[size_t(q[kTetFaceVertices[f][1]])]) &
@@ -177,6 +180,10 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
       drop[size_t(t)] = onBox[root] || outside[root] >= inside[root];
     }
   }
+  // The new number of every kept tet (-1: removed), for the face neighbours.
+  std::vector<int32_t> renumber;
+  const bool keepNeighbours = faceNeighbours && !faceNeighbours->empty();
+  if (keepNeighbours) renumber.assign(size_t(nt), -1);
   size_t w = 0;
   for (int64_t t = 0; t < nt; ++t) {
     const double v = std::abs(mesh.tetVolume(size_t(t)));
@@ -190,6 +197,7 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
       }
     }
     if (drop[size_t(t)]) continue;
+    if (keepNeighbours) renumber[size_t(t)] = int32_t(w);
     mesh.tets[w] = mesh.tets[size_t(t)];
     mesh.materials[w] = mesh.materials[size_t(t)];
     for (auto& [name, f] : mesh.cellFields)
@@ -200,6 +208,20 @@ StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelIm
   mesh.tets.resize(w);
   mesh.materials.resize(w);
   for (auto& [name, f] : mesh.cellFields) f.values.resize(w * size_t(f.components));
+  if (keepNeighbours) {
+    std::vector<int32_t>& nb = *faceNeighbours;
+    for (int64_t t = 0; t < nt; ++t) {
+      const int32_t to = renumber[size_t(t)];
+      if (to < 0) continue;
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[4 * size_t(t) + size_t(f)];
+        nb[4 * size_t(to) + size_t(f)] = o >= 0 ? (renumber[size_t(o)] >= 0 ? renumber[size_t(o)] : kNoNeighbour) : o;
+      }
+    }
+    nb.resize(4 * w);
+  } else if (faceNeighbours) {
+    faceNeighbours->clear();
+  }
   removeUnusedVertices(mesh);
   progress.endStage();
   return st;

@@ -46,7 +46,11 @@ struct StripStats {
 // one with a face on the box does. Throws InputError for a mesh failing validateStructure.
 StripStats stripExterior(TetMesh& mesh, const LabelVolume& labels, const LabelImageTopology* image,
                          const StripParams& params, const DomainBox& box, Progress& progress,
-                         const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr);
+                         const std::vector<std::pair<int32_t, int32_t>>* joins = nullptr,
+                         std::vector<int32_t>* faceNeighbours = nullptr);
+// `faceNeighbours` (tetFaceNeighbours of the mesh, or empty): used when filled, and on return those
+// of the stripped mesh (renumbered; a face towards a removed tet is a boundary face), or empty
+// when they were not known.
 
 // Whether a point lies in the exterior of `params.label`: the voxel nearest to it carries the
 // label and is in one of its 26-connected components that reach the box (any of its components

@@ -76,7 +76,8 @@ Quality qualityOf(const TetMesh& m, size_t t) {
 
 VolumeCorrectionStats correctVolumes(TetMesh& mesh, const std::vector<int32_t>& labels,
                                      const std::vector<double>& targets, const DomainBox& box,
-                                     const VolumeCorrectionParams& p, Progress& progress) {
+                                     const VolumeCorrectionParams& p, Progress& progress,
+                                     const std::vector<int32_t>* faceNeighbours) {
   if (labels.size() != targets.size()) throw InputError("volume correction: one target per label is needed");
   if (!(p.tolerance >= 0.0) || !std::isfinite(p.tolerance)) throw InputError("volume correction: tolerance must be >= 0");
   if (p.rounds < 0 || p.rounds > 20) throw InputError("volume correction: rounds must be in [0, 20]");
@@ -141,7 +142,9 @@ VolumeCorrectionStats correctVolumes(TetMesh& mesh, const std::vector<int32_t>& 
   const size_t np = mesh.numPoints();
   const double cosMin = std::cos(p.min_angle * M_PI / 180.0), cosMax = std::cos(p.max_angle * M_PI / 180.0);
   auto build = [&] {
-    const std::vector<int32_t> nb = tetFaceNeighbours(mesh, progress);
+    std::vector<int32_t> own;
+    if (!faceNeighbours || faceNeighbours->empty()) own = tetFaceNeighbours(mesh, progress);
+    const std::vector<int32_t>& nb = faceNeighbours && !faceNeighbours->empty() ? *faceNeighbours : own;
     stars = vertexStars(mesh);
     fixedAxes.resize(np);
 #pragma omp parallel for schedule(static)

@@ -66,10 +66,12 @@ struct VolumeCorrectionStats {
 };
 
 // labels/targets: the materials to correct and their volumes (mm^3); a target <= 0 means none.
-// Throws InputError for sizes that differ or parameters out of range.
+// `faceNeighbours`, when given and not empty, is tetFaceNeighbours(mesh) computed before (the
+// correction moves vertices only). Throws InputError for sizes that differ or parameters out of range.
 VolumeCorrectionStats correctVolumes(TetMesh& mesh, const std::vector<int32_t>& labels,
                                      const std::vector<double>& targets, const DomainBox& box,
-                                     const VolumeCorrectionParams& params, Progress& progress);
+                                     const VolumeCorrectionParams& params, Progress& progress,
+                                     const std::vector<int32_t>* faceNeighbours = nullptr);
 
 // volume_correction_* keys.
 void writeVolumeCorrectionReport(const VolumeCorrectionStats& s, Report& report);

@@ -181,15 +181,26 @@ TEST(Stripping, TheLabelsOwnComponentsGiveWhatTheWholeImageAnalysisGives) {
     }
     const LabelImageTopology full = analyzeLabelImage(v, np);
     for (const auto& comp : full.comps) withCavities += comp.label == L && !comp.touchesBox ? 1 : 0;
-    Cleaved a = cleaveIt(v, 1.5), b = cleaveIt(v, 1.5);
-    const StripStats sa = stripExterior(a.r.mesh, v, nullptr, StripParams{L, false}, a.box, np);
-    const StripStats sb = stripExterior(b.r.mesh, v, &full, StripParams{L, false}, b.box, np);
+    Cleaved a = cleaveIt(v, 1.5), b = cleaveIt(v, 1.5), c2 = cleaveIt(v, 1.5);
+    // a computes the face neighbours it needs and hands them back, b is given them, c2 strips the
+    // whole label with them given: each gets those of the stripped mesh back.
+    std::vector<int32_t> nbA, nbB = tetFaceNeighbours(b.r.mesh, np), nbC = tetFaceNeighbours(c2.r.mesh, np);
+    const StripStats sa = stripExterior(a.r.mesh, v, nullptr, StripParams{L, false}, a.box, np, nullptr, &nbA);
+    const StripStats sb = stripExterior(b.r.mesh, v, &full, StripParams{L, false}, b.box, np, nullptr, &nbB);
+    stripExterior(c2.r.mesh, v, nullptr, StripParams{L, true}, c2.box, np, nullptr, &nbC);
     EXPECT_EQ(sa.exteriorVoxels, sb.exteriorVoxels);
     EXPECT_EQ(sa.cavityVoxels, sb.cavityVoxels);
     EXPECT_EQ(sa.cavityComponents, sb.cavityComponents);
     EXPECT_EQ(sa.strippedTets, sb.strippedTets);
     EXPECT_EQ(a.r.mesh.tets, b.r.mesh.tets);
     EXPECT_EQ(a.r.mesh.materials, b.r.mesh.materials);
+    if (sa.cavityVoxels > 0) {
+      EXPECT_EQ(nbA, tetFaceNeighbours(a.r.mesh, np));
+    } else {
+      EXPECT_TRUE(nbA.empty()); // every tet of the label went: no face adjacency was needed
+    }
+    EXPECT_EQ(nbB, tetFaceNeighbours(b.r.mesh, np));
+    EXPECT_EQ(nbC, tetFaceNeighbours(c2.r.mesh, np));
   }
   EXPECT_GT(withCavities, 3); // the cases do have cavities
 }
