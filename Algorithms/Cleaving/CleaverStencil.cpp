@@ -46,49 +46,64 @@ CleaveResult Cleaver::stencil() {
   };
   progress_.checkCancel();
   const int64_t nt = static_cast<int64_t>(m_.tets.size());
-  std::vector<int64_t> counts(static_cast<size_t>(nt) + 1, 0);
-  // Pass 1: count output tets per background tet; pass 2: fill at the prefix offsets.
+  // Pass 1: count output tets per background tet (at most 24: one byte each); pass 2: fill, each
+  // block of background tets from its block's prefix offset (8 bytes per block, not per tet).
+  constexpr int64_t kBlock = 1024;
+  const int64_t blocks = (nt + kBlock - 1) / kBlock;
+  std::vector<uint8_t> count(static_cast<size_t>(nt), 0);
+  std::vector<int64_t> blockStart(static_cast<size_t>(blocks) + 1, 0);
   for (int pass = 0; pass < 2; ++pass) {
     progress_.checkCancel();
     LoopCancel cancel(progress_);
-#pragma omp parallel for schedule(dynamic, 1024)
-    for (int64_t b = 0; b < nt; ++b) {
-      if (cancel.skip(b)) continue;
-      const auto& q = m_.tets[b];
-      const int32_t it = bgToInterface_[b];
-      if (it < 0) {
-        if (!cull_.empty() && cull_[b]) continue; // counts[b + 1] stays 0
-        if (pass == 0) counts[b + 1] = 1;
-        else {
-          out.tets[counts[b]] = q;
-          out.materials[counts[b]] = mats_.labels()[label_[q[0]]];
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t blk = 0; blk < blocks; ++blk) {
+      if (cancel.skip()) continue;
+      int64_t k = blockStart[blk]; // pass 2: where this block's tets go
+      int64_t inBlock = 0;         // pass 1: this block's total
+      for (int64_t b = blk * kBlock; b < std::min(nt, (blk + 1) * kBlock); ++b) {
+        const auto& q = m_.tets[b];
+        const int32_t it = bgToInterface_[b];
+        if (it < 0) {
+          if (!cull_.empty() && cull_[b]) continue; // no output tet
+          if (pass == 0) {
+            count[b] = 1;
+            ++inBlock;
+          } else {
+            out.tets[k] = q;
+            out.materials[k] = mats_.labels()[label_[q[0]]];
+            ++k;
+          }
+          continue;
         }
-        continue;
-      }
-      int64_t k = pass == 0 ? 0 : counts[b];
-      const int32_t qid = idOf({kQuad, it});
-      for (const Flag& fl : flags_) {
-        const int32_t a = q[fl.v];
-        const int32_t c = idOf({kCut, tetEdge_[it][fl.e]});
-        const int32_t ov = triOverride_[it][fl.f];
-        const int32_t tr = ov >= 0 ? ov : idOf({kTriple, tetFace_[it][fl.f]});
-        if (a == c || a == tr || a == qid || c == tr || c == qid || tr == qid) continue;
+        if (pass == 1 && count[b] == 0) continue;
+        const int32_t qid = idOf({kQuad, it});
+        int n = 0;
+        for (const Flag& fl : flags_) {
+          const int32_t a = q[fl.v];
+          const int32_t c = idOf({kCut, tetEdge_[it][fl.e]});
+          const int32_t ov = triOverride_[it][fl.f];
+          const int32_t tr = ov >= 0 ? ov : idOf({kTriple, tetFace_[it][fl.f]});
+          if (a == c || a == tr || a == qid || c == tr || c == qid || tr == qid) continue;
+          if (pass == 1) {
+            out.tets[k] = fl.swapVE ? TetMesh::Tet{c, a, tr, qid} : TetMesh::Tet{a, c, tr, qid};
+            out.materials[k] = mats_.labels()[label_[a]];
+            ++k;
+          }
+          ++n;
+        }
         if (pass == 0) {
-          ++k;
-        } else {
-          out.tets[k] = fl.swapVE ? TetMesh::Tet{c, a, tr, qid} : TetMesh::Tet{a, c, tr, qid};
-          out.materials[k] = mats_.labels()[label_[a]];
-          ++k;
+          count[b] = static_cast<uint8_t>(n);
+          inBlock += n;
         }
       }
-      if (pass == 0) counts[b + 1] = k;
+      if (pass == 0) blockStart[blk + 1] = inBlock;
     }
     cancel.rethrow();
     if (pass == 0) {
-      for (int64_t b = 0; b < nt; ++b) counts[b + 1] += counts[b];
+      for (int64_t blk = 0; blk < blocks; ++blk) blockStart[blk + 1] += blockStart[blk];
       progress_.checkCancel();
-      out.tets.resize(static_cast<size_t>(counts[nt]));
-      out.materials.resize(static_cast<size_t>(counts[nt]));
+      out.tets.resize(static_cast<size_t>(blockStart[blocks]));
+      out.materials.resize(static_cast<size_t>(blockStart[blocks]));
     }
   }
   return r;
