@@ -241,7 +241,10 @@ void Cleaver::cullExterior() {
       if (cancel.skip(t)) continue;
       const auto& q = m_.tets[t];
       bool mark = false;
-      for (int32_t v : q) mark = mark || (ring == 0 ? label_[v] != S : (near[v] & 1) != 0);
+      // Ring 1 reads bit 0 while other threads set bit 1 of the same bytes: an atomic load.
+      for (int32_t v : q)
+        mark = mark || (ring == 0 ? label_[v] != S
+                                  : (std::atomic_ref<uint8_t>(near[v]).load(std::memory_order_relaxed) & 1) != 0);
       if (mark)
         for (int32_t v : q)
           std::atomic_ref<uint8_t>(near[v]).fetch_or(static_cast<uint8_t>(1u << ring), std::memory_order_relaxed);
