@@ -33,64 +33,65 @@ void removeUnusedVertices(TetMesh& mesh) {
 }
 
 namespace {
-// The 26-connected components of one label's voxels, from its runs along x (LabelRuns.h). comp
-// (per voxel, -1 elsewhere) only when `perVoxel` and some component is a cavity (does not touch
-// the box): without one, every tet of the label goes and no tet needs a vote. No cores, no
-// contacts: what stripping needs of analyzeLabelImage, for one label.
-LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool perVoxel, Progress& progress) {
-  const LabelRows rows = labelRows(labels, L);
+// The 26-connected components of one label's voxels, from its runs along x (LabelRuns.h): the
+// runs, the component of each, and each component's voxels and whether it touches the box.
+struct LabelRunComponents {
+  LabelRows rows;
+  std::vector<int32_t> compOfRun;
+  std::vector<ImageComponent> comps;
+};
+
+LabelRunComponents runComponentsOf(const LabelVolume& labels, int32_t L, Progress& progress) {
+  LabelRunComponents out;
+  out.rows = labelRows(labels, L);
+  const LabelRows& rows = out.rows;
   const int64_t nx = rows.nx, ny = rows.ny, nz = rows.nz;
-  const auto& start = rows.start;
-  const auto& runs = rows.runs;
-  DisjointSets sets(runs.size());
+  DisjointSets sets(rows.runs.size());
   joinRuns(rows, sets, progress);
-  LabelImageTopology out;
   int32_t count = 0;
-  const std::vector<int32_t> compOfRun = runComponents(rows, sets, count);
+  out.compOfRun = runComponents(rows, sets, count);
   out.comps.resize(size_t(count));
   for (int64_t r = 0; r < rows.rows(); ++r) {
     const int64_t j = r % ny, k = r / ny;
     const bool rowOnBox = j == 0 || j == ny - 1 || k == 0 || k == nz - 1;
-    for (int64_t q = start[size_t(r)]; q < start[size_t(r) + 1]; ++q) {
-      ImageComponent& c = out.comps[size_t(compOfRun[size_t(q)])];
-      const LabelRun& x = runs[size_t(q)];
+    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q) {
+      ImageComponent& c = out.comps[size_t(out.compOfRun[size_t(q)])];
+      const LabelRun& x = rows.runs[size_t(q)];
       c.label = L;
       c.voxels += x.i1 - x.i0 + 1;
       c.touchesBox = c.touchesBox || rowOnBox || x.i0 == 0 || x.i1 == nx - 1;
     }
   }
+  return out;
+}
+
+// What stripping needs of analyzeLabelImage, for one label (no cores, no contacts): comp (per
+// voxel, -1 elsewhere) only when `perVoxel` and some component is a cavity (does not touch the
+// box): without one, every tet of the label goes and no tet needs a vote.
+LabelImageTopology labelComponents(const LabelVolume& labels, int32_t L, bool perVoxel, Progress& progress) {
+  LabelRunComponents rc = runComponentsOf(labels, L, progress);
+  LabelImageTopology out;
+  out.comps = std::move(rc.comps);
   const bool cavity = std::any_of(out.comps.begin(), out.comps.end(), [](const ImageComponent& c) { return !c.touchesBox; });
   if (perVoxel && cavity) {
     out.comp.assign(labels.data.size(), -1);
-    paintRuns(rows, compOfRun, out.comp);
+    paintRuns(rc.rows, rc.compOfRun, out.comp);
   }
   return out;
 }
 } // namespace
 
 ExteriorTest::ExteriorTest(const LabelVolume& labels, const StripParams& p, Progress& progress) : labels_(labels) {
-  LabelRows rows = labelRows(labels, p.label);
-  DisjointSets sets(rows.runs.size());
-  joinRuns(rows, sets, progress);
-  int32_t count = 0;
-  const std::vector<int32_t> compOfRun = runComponents(rows, sets, count);
-  std::vector<uint8_t> onBox(size_t(count), 0);
-  const int64_t nx = rows.nx, ny = rows.ny, nz = rows.nz;
-  for (int64_t r = 0; r < rows.rows(); ++r) {
-    const int64_t j = r % ny, k = r / ny;
-    const bool rowOnBox = j == 0 || j == ny - 1 || k == 0 || k == nz - 1;
-    for (int64_t q = rows.start[size_t(r)]; q < rows.start[size_t(r) + 1]; ++q)
-      if (rowOnBox || rows.runs[size_t(q)].i0 == 0 || rows.runs[size_t(q)].i1 == nx - 1) onBox[size_t(compOfRun[size_t(q)])] = 1;
-  }
-  start_ = std::move(rows.start);
-  i0_.resize(rows.runs.size());
-  i1_.resize(rows.runs.size());
-  exterior_.resize(rows.runs.size());
-  for (size_t q = 0; q < rows.runs.size(); ++q) {
-    i0_[q] = rows.runs[q].i0;
-    i1_[q] = rows.runs[q].i1;
-    exterior_[q] = p.cavities || onBox[size_t(compOfRun[q])];
-    if (exterior_[q]) exteriorVoxels_ += i1_[q] - i0_[q] + 1;
+  LabelRunComponents rc = runComponentsOf(labels, p.label, progress);
+  const auto& runs = rc.rows.runs;
+  start_ = std::move(rc.rows.start);
+  i0_.resize(runs.size());
+  i1_.resize(runs.size());
+  exterior_.resize(runs.size());
+  for (size_t q = 0; q < runs.size(); ++q) {
+    i0_[q] = runs[q].i0;
+    i1_[q] = runs[q].i1;
+    exterior_[q] = p.cavities || rc.comps[size_t(rc.compOfRun[q])].touchesBox;
   }
 }
 

@@ -60,14 +60,12 @@ class ExteriorTest {
 public:
   ExteriorTest(const LabelVolume& labels, const StripParams& params, Progress& progress);
   bool operator()(const Vec3& p) const;
-  int64_t exteriorVoxels() const { return exteriorVoxels_; }
 
 private:
   const LabelVolume& labels_;
   std::vector<int64_t> start_;   // per row: its first run
   std::vector<int32_t> i0_, i1_; // runs (of the label only)
   std::vector<uint8_t> exterior_; // per run
-  int64_t exteriorVoxels_ = 0;
 };
 
 // Removes the vertices no tet uses, renumbering the rest in order (point fields follow).

@@ -191,6 +191,12 @@ std::array<int32_t, 3> sortedTetFace(const TetMesh& mesh, int64_t t, int f) {
   return v;
 }
 
+// The smallest vertex of each face f of a tet (face f omits vertex f).
+std::array<int32_t, 4> smallestFaceVertices(const TetMesh::Tet& q) {
+  const int32_t lo01 = std::min(q[0], q[1]), lo23 = std::min(q[2], q[3]);
+  return {std::min(q[1], lo23), std::min(q[0], lo23), std::min(lo01, q[3]), std::min(lo01, q[2])};
+}
+
 // The buckets hold only 4 * tet + face (Index: 4 bytes while 4 n fits in 32 bits); a bucket's
 // other two vertices are read back from the tets when it is matched. Writing 16 bytes per face
 // took more time (fresh pages) than reading the tets again, and four times the memory.
@@ -204,10 +210,7 @@ std::vector<int32_t> matchFaces(const TetMesh& mesh, Progress& progress) {
   for (int64_t t = 0; t < n; ++t) {
     if (countCancel.skip(t)) continue;
     const auto& q = mesh.tets[static_cast<size_t>(t)];
-    const int32_t lo01 = std::min(q[0], q[1]), lo23 = std::min(q[2], q[3]);
-    // Face f omits vertex f: its smallest vertex is the smallest of the other three.
-    const int32_t smallest[4] = {std::min(q[1], lo23), std::min(q[0], lo23), std::min(lo01, q[3]),
-                                 std::min(lo01, q[2])};
+    const auto smallest = smallestFaceVertices(q);
     for (int f = 0; f < 4; ++f)
       std::atomic_ref<int64_t>(offset[static_cast<size_t>(smallest[f]) + 1]).fetch_add(1, std::memory_order_relaxed);
   }
@@ -225,9 +228,7 @@ std::vector<int32_t> matchFaces(const TetMesh& mesh, Progress& progress) {
     for (int64_t t = 0; t < n; ++t) {
       if (fillCancel.skip(t)) continue;
       const auto& q = mesh.tets[static_cast<size_t>(t)];
-      const int32_t lo01 = std::min(q[0], q[1]), lo23 = std::min(q[2], q[3]);
-      const int32_t smallest[4] = {std::min(q[1], lo23), std::min(q[0], lo23), std::min(lo01, q[3]),
-                                   std::min(lo01, q[2])};
+      const auto smallest = smallestFaceVertices(q);
       for (int f = 0; f < 4; ++f) {
         const int64_t at =
             std::atomic_ref<int64_t>(pos[static_cast<size_t>(smallest[f])]).fetch_add(1, std::memory_order_relaxed);
