@@ -62,16 +62,35 @@ void Cleaver::optimizeAngles(TetMesh& out) {
     }
     return s;
   };
-  // `floor`: stop early (returning -1) once a tet is no better than this.
-  auto worst = [&](const std::vector<int32_t>& ts, double volume, double floor = -1.0) {
-    double w = 180.0, s = 0;
-    for (int32_t t : ts) {
+  // `floor`: stop early (returning -1) once a tet is no better than this. `ts` is the vertex's
+  // tets in any order: the one a trial fails on moves to the front, where the next trial most
+  // likely fails too. The smallest score is acos of the largest max(cos, -cos) over the tets
+  // (acos falls), so acos runs only when that largest value changes. The volumes are summed in
+  // `all`'s order, so no decision depends on the order of `ts`.
+  auto worst = [&](std::vector<int32_t>& ts, const std::vector<int32_t>& all, double volume, double floor = -1.0) {
+    double w = 180.0, c = -2.0;
+    for (size_t i = 0; i < ts.size(); ++i) {
+      const auto& q = out.tets[ts[i]];
+      const Vec3 &a = out.points[q[0]], &b = out.points[q[1]], &d = out.points[q[2]], &e = out.points[q[3]];
+      double lo, hi;
+      if (signedTetVolume(a, b, d, e) <= 0 || !dihedralCosineRange(a, b, d, e, lo, hi)) {
+        std::swap(ts[i], ts[0]);
+        return -1.0; // dihedralScore -1: at or below any floor
+      }
+      const double m = std::max(hi, -lo);
+      if (m > c) {
+        c = m;
+        w = std::min(w, std::acos(std::clamp(c, -1.0, 1.0)) * (180.0 / M_PI));
+        if (w <= floor) {
+          std::swap(ts[i], ts[0]);
+          return -1.0;
+        }
+      }
+    }
+    double s = 0;
+    for (int32_t t : all) {
       const auto& q = out.tets[t];
-      const double vol = signedTetVolume(out.points[q[0]], out.points[q[1]], out.points[q[2]], out.points[q[3]]);
-      if (vol <= 0) return -1.0;
-      s += vol;
-      w = std::min(w, tetMin(q));
-      if (w <= floor) return -1.0;
+      s += signedTetVolume(out.points[q[0]], out.points[q[1]], out.points[q[2]], out.points[q[3]]);
     }
     if (std::abs(s - volume) > 1e-9 * volume) return -1.0;
     return w;
@@ -128,7 +147,8 @@ void Cleaver::optimizeAngles(TetMesh& out) {
         return false;
       }
       const double volume = volumeAround(ts);
-      double best = worst(ts, volume);
+      std::vector<int32_t> order = ts;
+      double best = worst(order, ts, volume);
       if (best >= kTarget) return false;
       double len = 0;
       for (int32_t t : ts)
@@ -168,7 +188,7 @@ void Cleaver::optimizeAngles(TetMesh& out) {
           start, best,
           [&](const Vec3& at, double floor) {
             out.points[v] = at;
-            return worst(ts, volume, floor);
+            return worst(order, ts, volume, floor);
           },
           [](Vec3&) {}, [] {});
       out.points[v] = bestPos;

@@ -20,6 +20,32 @@ using Tet = TetMesh::Tet;
 inline constexpr int32_t kOutside = INT32_MIN; // the label of the outside of the domain
 inline constexpr int kMaxRing = 7;             // largest ring an edge removal re-triangulates
 
+// The worst improveScore of a set of tets, kept as the extremes of their dihedral cosines. A tet's
+// score falls as its largest cosine (smallest angle) rises and as its smallest cosine (largest
+// angle) falls, so the worst score of a set is the score of those two extremes: two acos per
+// change of an extreme instead of two per tet, and the same value as the minimum over the tets.
+class WorstScore {
+public:
+  WorstScore(double minAngle, double maxAngle) : minAngle_(minAngle), maxAngle_(maxAngle) {}
+  // Adds a tet; true when the worst score may have changed (then value() is worth asking).
+  bool add(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+    if (invalid_) return false;
+    double lo, hi;
+    if (!dihedralCosineRange(a, b, c, d, lo, hi)) return invalid_ = true;
+    bool changed = false;
+    if (hi > hi_) hi_ = hi, changed = true;
+    if (lo < lo_) lo_ = lo, changed = true;
+    return changed;
+  }
+  // 1e9 for no tets, -1 once a tet was flat or inverted.
+  double value() const;
+
+private:
+  double minAngle_, maxAngle_;
+  double hi_ = -2.0, lo_ = 2.0; // cosines lie in [-1, 1]
+  bool invalid_ = false;
+};
+
 // Tets around one vertex with their materials (a working copy for trial moves).
 struct LocalStar {
   std::vector<Tet> tets;
@@ -84,6 +110,8 @@ private:
   // ---- scores ----
   double score(const Tet& q) const;
   double scoreWith(const Tet& q, int32_t v, const Vec3& at) const;
+  // Adds q, with v at `at`, to w.
+  bool addWith(WorstScore& w, const Tet& q, int32_t v, const Vec3& at) const;
   double worstOf(const std::vector<int32_t>& ts) const;
   size_t labelIndex(int32_t label) const;
 

@@ -15,12 +15,19 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 } // namespace
 
-double improveScore(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, double minAngle, double maxAngle) {
-  double lo, hi;
-  if (!dihedralCosineRange(a, b, c, d, lo, hi)) return -1.0;
+namespace {
+// The score of a tet whose dihedral cosines lie in [lo, hi].
+double scoreOfCosines(double lo, double hi, double minAngle, double maxAngle) {
   const double smallest = std::acos(std::clamp(hi, -1.0, 1.0)) / kDeg;
   const double largest = std::acos(std::clamp(lo, -1.0, 1.0)) / kDeg;
   return std::min(smallest, (180.0 - largest) * minAngle / (180.0 - maxAngle));
+}
+} // namespace
+
+double improveScore(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, double minAngle, double maxAngle) {
+  double lo, hi;
+  if (!dihedralCosineRange(a, b, c, d, lo, hi)) return -1.0;
+  return scoreOfCosines(lo, hi, minAngle, maxAngle);
 }
 
 double ImproveStats::maxVolumeChangePercent() const {
@@ -110,10 +117,25 @@ double Improver::scoreWith(const Tet& q, int32_t v, const Vec3& at) const {
   return improveScore(p[0], p[1], p[2], p[3], p_.min_angle, p_.max_angle);
 }
 
+double WorstScore::value() const {
+  if (invalid_) return -1.0;
+  if (hi_ < -1.5) return 1e9;
+  return scoreOfCosines(lo_, hi_, minAngle_, maxAngle_);
+}
+
+bool Improver::addWith(WorstScore& w, const Tet& q, int32_t v, const Vec3& at) const {
+  Vec3 p[4];
+  for (int k = 0; k < 4; ++k) p[k] = q[k] == v ? at : m_.points[q[k]];
+  return w.add(p[0], p[1], p[2], p[3]);
+}
+
 double Improver::worstOf(const std::vector<int32_t>& ts) const {
-  double w = 1e9;
-  for (int32_t t : ts) w = std::min(w, score(m_.tets[size_t(t)]));
-  return w;
+  WorstScore w(p_.min_angle, p_.max_angle);
+  for (int32_t t : ts) {
+    const Tet& q = m_.tets[size_t(t)];
+    w.add(m_.points[q[0]], m_.points[q[1]], m_.points[q[2]], m_.points[q[3]]);
+  }
+  return w.value();
 }
 
 size_t Improver::labelIndex(int32_t label) const {
