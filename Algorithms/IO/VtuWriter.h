@@ -21,6 +21,9 @@ struct VtuWriteOptions {
   bool int64Cells = false;
   // Blocks compressed together between two writes and cancellation checks (4 MiB of input).
   int blocksPerChunk = 128;
+  // Arrays that zlib barely shrinks (judged by their first block) go out as stored zlib blocks;
+  // off: every block at level 1, byte for byte what VTK's writer makes at that level.
+  bool storeIncompressible = true;
 };
 
 // Writes `m` to `path` atomically (temp file + rename). The caller has validated the mesh and

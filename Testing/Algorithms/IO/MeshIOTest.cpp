@@ -706,7 +706,8 @@ TEST(MeshIOVtu, RandomMeshesReadBackExactly) {
 
 // The file of VtuWriter is VTK's file: the same arrays (types, names, components, order and
 // offsets), the same appended bytes (VTK's zlib is the system zlib, so even the compressed blocks
-// agree), and the same mesh when read; the ranges agree to VTK's 11 digits.
+// agree; with storeIncompressible off, since VTK compresses every array), and the same mesh when
+// read; the ranges agree to VTK's 11 digits.
 TEST(MeshIOVtu, SameFileAsVtksWriter) {
   TempDir dir;
   unsigned seed = 40;
@@ -718,6 +719,7 @@ TEST(MeshIOVtu, SameFileAsVtksWriter) {
       const std::string ours = dir.file("ours.vtu"), vtks = dir.file("vtk.vtu");
       VtuWriteOptions options;
       options.int64Cells = wide;
+      options.storeIncompressible = false;
       writeVtuFile(ours, m, options);
       writeWithVtk(vtks, m, wide);
       const std::string a = readText(ours), b = readText(vtks);
@@ -763,6 +765,60 @@ TEST(MeshIOVtu, SameFileAsVtksWriter) {
       expectIdentical(readMesh(vtks), readMesh(ours));
     }
   }
+}
+
+// The compressed size of every block of the appended array whose DataArray tag names `name`.
+std::vector<uint64_t> blockSizes(const std::string& file, const std::string& name) {
+  for (const auto& tag : xmlTags(file, "DataArray"))
+    if (tag.count("Name") && tag.at("Name") == name) {
+      const std::string data = appendedData(file);
+      const size_t at = std::stoull(tag.at("offset"));
+      uint64_t blocks = 0;
+      std::memcpy(&blocks, data.data() + at, 8);
+      std::vector<uint64_t> sizes(blocks);
+      std::memcpy(sizes.data(), data.data() + at + 24, 8 * blocks);
+      return sizes;
+    }
+  ADD_FAILURE() << "no array " << name;
+  return {};
+}
+
+// Random doubles (every bit in use, as in quality fields) barely shrink: but for the first block
+// of each group of 8 (compressed, to decide) their array goes out in stored zlib blocks, a few
+// bytes longer than the block; arrays that shrink (the offsets 4, 8,
+// 12, ..., a constant field) are still compressed. Both kinds read back exactly with VTK's
+// reader, and the file is the same for any chunk size.
+TEST(MeshIOVtu, IncompressibleArraysAreStored) {
+  TempDir dir;
+  TetMesh m = randomTets(20000, 70000, 7);
+  m.cellFields["constant"] = Field{1, std::vector<double>(70000, 0.25)};
+  writeMesh(dir.file("m.vtu"), m);
+  const std::string file = readText(dir.file("m.vtu"));
+  const std::vector<uint64_t> random = blockSizes(file, "c1"), constant = blockSizes(file, "constant"),
+                              offsets = blockSizes(file, "offsets");
+  ASSERT_EQ(random.size(), (70000u * 8 + 32767) / 32768);
+  for (size_t k = 0; k + 1 < random.size(); ++k) {
+    if (k % 8 == 0) { // the first of each group of 8 is compressed (it decides): it shrinks by less than a fifth
+      EXPECT_GT(random[k], 0.8 * 32768) << "block " << k;
+      EXPECT_LT(random[k], 32768u) << "block " << k;
+    } else { // stored: the block plus zlib's framing
+      EXPECT_GT(random[k], 32768u) << "block " << k;
+      EXPECT_LT(random[k], 32768u + 64) << "block " << k;
+    }
+  }
+  for (uint64_t z : constant) EXPECT_LT(z, 1000u);
+  for (uint64_t z : offsets) EXPECT_LT(z, 20000u);
+  expectIdentical(m, readMesh(dir.file("m.vtu")));
+  VtuWriteOptions small;
+  small.blocksPerChunk = 3;
+  writeVtuFile(dir.file("small.vtu"), m, small);
+  EXPECT_TRUE(readText(dir.file("small.vtu")) == file);
+  // With storing off the same arrays are compressed at level 1 and the file is smaller.
+  VtuWriteOptions packed;
+  packed.storeIncompressible = false;
+  writeVtuFile(dir.file("packed.vtu"), m, packed);
+  for (uint64_t z : blockSizes(readText(dir.file("packed.vtu")), "c1")) EXPECT_LT(z, 32768u);
+  expectIdentical(m, readMesh(dir.file("packed.vtu")));
 }
 
 // VTK 9.1's writer puts names into the XML as they are (a name with '"' or '<' made its file
