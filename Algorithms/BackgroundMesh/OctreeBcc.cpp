@@ -95,13 +95,20 @@ private:
 
 } // namespace
 
-int SizingOctree::levelAt(const std::array<int64_t, 3>& f) const {
+int SizingOctree::levelAt(const std::array<int64_t, 3>& f, int near) const {
   for (int a = 0; a < 3; ++a)
     if (f[size_t(a)] < 0 || f[size_t(a)] >= (roots[size_t(a)] << finestLevel)) return -1;
-  for (int l = 0; l <= finestLevel; ++l) {
+  auto holds = [&](int l) {
+    if (l < 0 || l > finestLevel) return false;
     const int sh = finestLevel - l;
-    if (leafSet.count(leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh))) return l;
-  }
+    return leafSet.count(leafKey(l, f[0] >> sh, f[1] >> sh, f[2] >> sh)) > 0;
+  };
+  // Exactly one leaf holds f, so the order of the tries changes nothing but their number.
+  if (near >= 0)
+    for (int l : {near, near - 1, near + 1})
+      if (holds(l)) return l;
+  for (int l = 0; l <= finestLevel; ++l)
+    if (holds(l)) return l;
   return -1; // unreachable: the leaves tile the box
 }
 
@@ -480,8 +487,18 @@ struct TreeMesh {
   int64_t transitionTets = 0, bisectedTets = 0;
 };
 
-TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress) {
-  TreeMesh tm;
+// `reuse`: a mesh of an earlier round whose arrays are overwritten (their memory is already
+// mapped, where fresh arrays of a 30 M-tet lattice cost a page fault per page).
+TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress, TreeMesh reuse = {}) {
+  TreeMesh tm = std::move(reuse);
+  tm.bg.mesh.points.clear();
+  tm.bg.mesh.tets.clear();
+  tm.bg.mesh.materials.clear();
+  tm.bg.kind.clear();
+  tm.vertexKeys.clear();
+  tm.owner.clear();
+  tm.graded.clear();
+  tm.transitionTets = tm.bisectedTets = 0;
   BackgroundMesh& bg = tm.bg;
   const int L = tree.finestLevel;
   const std::vector<uint64_t>& sorted = tree.leaves;
@@ -539,8 +556,11 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
 
   // Tets, piece by piece, in parallel over blocks of leaves; blocks are joined in leaf order, so
   // the mesh does not depend on the thread count.
-  auto leafIndexOf = [&](int level, int64_t i, int64_t j, int64_t k) {
+  // `next`: the leaf after the asking one, which is its +x neighbour at the same level more often
+  // than not (the keys sort by level, z, y, x).
+  auto leafIndexOf = [&](int level, int64_t i, int64_t j, int64_t k, int64_t next) {
     const uint64_t key = leafKey(level, i, j, k);
+    if (next < int64_t(sorted.size()) && sorted[size_t(next)] == key) return int32_t(next);
     return int32_t(std::lower_bound(sorted.begin(), sorted.end(), key) - sorted.begin());
   };
   struct Block {
@@ -558,6 +578,13 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   for (int64_t bi = 0; bi < nBlocks; ++bi) {
    if (cancel.skip()) continue;
    Block& out = blocks[size_t(bi)];
+   {
+     // About 12 tets per leaf in a uniform region (3 faces of 4 tets each); more where graded.
+     const size_t leavesHere = size_t(std::min(nLeaves, (bi + 1) * blockSize) - bi * blockSize);
+     out.tets.reserve(14 * leavesHere);
+     out.owner.reserve(14 * leavesHere);
+     out.graded.reserve(14 * leavesHere);
+   }
    for (int64_t li = bi * blockSize; li < std::min(nLeaves, (bi + 1) * blockSize); ++li) {
     const uint64_t key = sorted[size_t(li)];
     const int l = keyLevel(key);
@@ -569,7 +596,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
       const bool plus = face % 2 == 1;
       std::array<int64_t, 3> probe{idx[0] * s, idx[1] * s, idx[2] * s};
       probe[size_t(a)] = plus ? (idx[size_t(a)] + 1) * s : idx[size_t(a)] * s - 1;
-      const int m = tree.levelAt(probe);
+      const int m = tree.levelAt(probe, l); // balanced: the neighbour is at l - 1, l or l + 1
       int32_t other;
       int32_t otherLeaf = -1;
       bool onBox = false;
@@ -592,7 +619,7 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
         const int sh = L - m;
         const int64_t sm = int64_t(1) << sh;
         other = existing(2 * sm * (probe[0] >> sh) + sm, 2 * sm * (probe[1] >> sh) + sm, 2 * sm * (probe[2] >> sh) + sm);
-        otherLeaf = leafIndexOf(m, probe[0] >> sh, probe[1] >> sh, probe[2] >> sh);
+        otherLeaf = leafIndexOf(m, probe[0] >> sh, probe[1] >> sh, probe[2] >> sh, li + 1);
       }
       const std::array<int32_t, 2> owners{int32_t(li), otherLeaf};
       const bool transition = !onBox && m != l;
@@ -619,23 +646,33 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
     }
    }
   }
-  size_t total = 0;
-  for (const Block& blk : blocks) total += blk.tets.size();
+  std::vector<size_t> at(blocks.size() + 1, 0); // where each block's tets go
+  for (size_t b = 0; b < blocks.size(); ++b) at[b + 1] = at[b] + blocks[b].tets.size();
+  const size_t total = at.back();
   if (total > size_t(kMaxTets))
     throw InputError("the octree background mesh would have more than 2^31 - 1 tets; raise min_cell_size "
                      "(or the sizing field's min_size)");
   cancel.rethrow();
-  mesh.tets.reserve(total);
-  tm.owner.reserve(total);
-  tm.graded.reserve(total);
-  for (Block& blk : blocks) {
-    progress.checkCancel();
-    mesh.tets.insert(mesh.tets.end(), blk.tets.begin(), blk.tets.end());
-    tm.owner.insert(tm.owner.end(), blk.owner.begin(), blk.owner.end());
-    tm.graded.insert(tm.graded.end(), blk.graded.begin(), blk.graded.end());
+  // Joined in leaf order, block by block on both threads (each copy into its own range).
+  mesh.tets.resize(total);
+  tm.owner.resize(total);
+  tm.graded.resize(total);
+  LoopCancel joinCancel(progress);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t bi = 0; bi < nBlocks; ++bi) {
+    if (joinCancel.skip()) continue;
+    Block& blk = blocks[size_t(bi)];
+    std::copy(blk.tets.begin(), blk.tets.end(), mesh.tets.begin() + std::ptrdiff_t(at[size_t(bi)]));
+    std::copy(blk.owner.begin(), blk.owner.end(), tm.owner.begin() + std::ptrdiff_t(at[size_t(bi)]));
+    std::copy(blk.graded.begin(), blk.graded.end(), tm.graded.begin() + std::ptrdiff_t(at[size_t(bi)]));
+    std::vector<TetMesh::Tet>().swap(blk.tets); // freed as it goes
+    std::vector<std::array<int32_t, 2>>().swap(blk.owner);
+    std::vector<uint8_t>().swap(blk.graded);
+  }
+  joinCancel.rethrow();
+  for (const Block& blk : blocks) {
     tm.transitionTets += blk.transition;
     tm.bisectedTets += blk.bisected;
-    std::vector<TetMesh::Tet>().swap(blk.tets);
   }
   progress.checkCancel();
   const int64_t nt = int64_t(mesh.tets.size());
@@ -696,7 +733,7 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
       touched.insert(touched.end(), created.begin(), created.end());
       st.thinLayerSplits += splitThinLayerLeaves(tree, grid, *thin, progress, std::move(touched), st);
       tree.finish(st, &progress);
-      tm = meshFromTree(tree, grid, progress);
+      tm = meshFromTree(tree, grid, progress, std::move(tm));
       progress.checkCancel();
     }
     progress.endStage();
@@ -791,7 +828,7 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
       st.interfaceSplits += int64_t(toSplit.size());
       st.balanceSplits += tree.balance(std::move(touched), &progress);
       tree.finish(st, &progress);
-      tm = meshFromTree(tree, grid, progress);
+      tm = meshFromTree(tree, grid, progress, std::move(tm));
       progress.checkCancel();
     }
     progress.endStage();

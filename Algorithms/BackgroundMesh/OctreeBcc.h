@@ -87,8 +87,9 @@ struct SizingOctree {
   size_t size() const { return leaves.size(); }
   int leafLevel(size_t i) const;
   std::array<int64_t, 3> leafIndex(size_t i) const;
-  // Level of the leaf holding the finest cell f (finest-cell coordinates), -1 outside the box.
-  int levelAt(const std::array<int64_t, 3>& f) const;
+  // Level of the leaf holding the finest cell f (finest-cell coordinates), -1 outside the box;
+  // `near` (when >= 0): the levels near, near - 1 and near + 1 are tried first.
+  int levelAt(const std::array<int64_t, 3>& f, int near = -1) const;
   // Local point of half-finest-cell coordinates.
   Vec3 halfToLocal(int64_t x, int64_t y, int64_t z) const;
   // Editing (leafSet only; finish() rebuilds `leaves` and the level statistics): split one leaf

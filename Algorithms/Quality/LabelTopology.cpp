@@ -338,16 +338,22 @@ int32_t voteImageComponent(const LabelVolume& labels, const std::vector<int32_t>
 }
 
 DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb, const TetJoins* joins) {
-  DisjointSets sets(mesh.numTets());
-  for (size_t t = 0; t < mesh.numTets(); ++t)
+  // Both threads join tets at once; every set's root is its smallest tet either way, so the sets
+  // (and every find() on them) are those of a serial union-find.
+  ConcurrentSets sets(mesh.numTets());
+  const int64_t n = static_cast<int64_t>(mesh.numTets());
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t)
     for (int f = 0; f < 4; ++f) {
-      const int32_t o = nb[4 * t + size_t(f)];
-      if (o > int32_t(t) && mesh.materials[size_t(o)] == mesh.materials[t]) sets.unite(int32_t(t), o);
+      const int32_t o = nb[4 * size_t(t) + size_t(f)];
+      if (o > int32_t(t) && mesh.materials[size_t(o)] == mesh.materials[size_t(t)]) sets.unite(int32_t(t), o);
     }
   if (joins)
     for (const auto& [a, b] : *joins)
       if (mesh.materials[size_t(a)] == mesh.materials[size_t(b)]) sets.unite(a, b);
-  return sets;
+  DisjointSets out(0);
+  out.parent = std::move(sets.parent);
+  return out;
 }
 
 std::vector<int32_t> tetVotes(const TetMesh& mesh, const LabelVolume& labels, const std::vector<int32_t>& comp) {

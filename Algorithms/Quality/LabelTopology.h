@@ -4,6 +4,7 @@
 // contacts of a label image, and the vote of a tet for the image component it lies in.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -55,6 +56,36 @@ struct DisjointSets {
     if (a == b) return;
     if (a < b) std::swap(a, b);
     parent[static_cast<size_t>(a)] = b;
+  }
+};
+
+// Union-find for two threads at once (the smaller root wins, so the sets' roots are their smallest
+// elements whatever the order): a root is linked with a compare-and-swap, and path halving's
+// writes only ever shorten a path, so racing ones are harmless.
+struct ConcurrentSets {
+  std::vector<int32_t> parent;
+  explicit ConcurrentSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int32_t find(int32_t x) {
+    for (;;) {
+      std::atomic_ref<int32_t> px(parent[size_t(x)]);
+      int32_t p = px.load(std::memory_order_relaxed);
+      if (p == x) return x;
+      const int32_t g = std::atomic_ref<int32_t>(parent[size_t(p)]).load(std::memory_order_relaxed);
+      if (g != p) px.compare_exchange_weak(p, g, std::memory_order_relaxed); // halving
+      x = g;
+    }
+  }
+  // Joins the sets of a and b; returns the root of the joined set (as it was then).
+  int32_t unite(int32_t a, int32_t b) {
+    for (;;) {
+      a = find(a);
+      b = find(b);
+      if (a == b) return a;
+      if (a < b) std::swap(a, b);
+      int32_t expected = a;
+      if (std::atomic_ref<int32_t>(parent[size_t(a)]).compare_exchange_strong(expected, b, std::memory_order_relaxed))
+        return b;
+    }
   }
 };
 
