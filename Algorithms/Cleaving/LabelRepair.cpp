@@ -106,13 +106,30 @@ Choice choose(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed
 // most voting volume (ties to the smaller root), or with `keepCores`, the max(1, cores) pieces
 // with the most (a component may be in as many pieces as it has cores). `pairs`, when given,
 // receives the (image component << 32 | root) of every primary piece.
+// Adds to the entry of a key in a node-based map, keeping the last entry at hand: the tets of a
+// piece come in long runs, so most additions skip the lookup. The same sums, added in the same
+// order, as looking every key up.
+struct RunningSums {
+  std::unordered_map<uint64_t, double>& map;
+  uint64_t key = 0;
+  double* at = nullptr;
+  void add(uint64_t k, double v) {
+    if (!at || k != key) {
+      at = &map[k];
+      key = k;
+    }
+    *at += v;
+  }
+};
+
 std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, const std::vector<int32_t>& vote,
                                    const LabelImageTopology* keepCores = nullptr,
                                    std::unordered_set<uint64_t>* pairs = nullptr) {
   std::unordered_map<uint64_t, double> votes; // (image comp, root) -> volume
+  RunningSums sums{votes};
   for (size_t t = 0; t < mesh.numTets(); ++t)
     if (vote[t] >= 0)
-      votes[(uint64_t(uint32_t(vote[t])) << 32) | uint32_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(t));
+      sums.add((uint64_t(uint32_t(vote[t])) << 32) | uint32_t(sets.find(int32_t(t))), std::abs(mesh.tetVolume(t)));
   std::vector<std::pair<uint64_t, double>> sorted(votes.begin(), votes.end());
   std::sort(sorted.begin(), sorted.end());
   std::vector<uint8_t> primary(mesh.numTets(), 0);
@@ -592,10 +609,11 @@ void repairFragments(Steps& s) {
     // The image component each piece votes for most (-1: none), and its size limit: fragment_voxels,
     // or kFragmentShare of that component (of its label's voxels when it votes for none).
     std::unordered_map<uint64_t, double> pieceVotes; // (root, comp) -> volume
+    RunningSums sums{pieceVotes};
     for (int64_t t = 0; t < n; ++t)
       if (vote[size_t(t)] >= 0)
-        pieceVotes[(uint64_t(uint32_t(sets.find(int32_t(t)))) << 32) | uint32_t(vote[size_t(t)])] +=
-            std::abs(mesh.tetVolume(size_t(t)));
+        sums.add((uint64_t(uint32_t(sets.find(int32_t(t)))) << 32) | uint32_t(vote[size_t(t)]),
+                 std::abs(mesh.tetVolume(size_t(t))));
     std::vector<std::pair<uint64_t, double>> pv(pieceVotes.begin(), pieceVotes.end());
     std::sort(pv.begin(), pv.end());
     std::unordered_map<int32_t, std::pair<int32_t, double>> mainComp; // root -> (comp, votes)
@@ -622,14 +640,30 @@ void repairFragments(Steps& s) {
     // one). Each stray is a candidate of its own (key: -1 - tet) when it is on the piece's surface.
     std::map<int32_t, std::map<int32_t, double>> border; // root (or -1 - stray tet) -> label -> shared area
     std::vector<int64_t> candidateTets;
+    // Per tet, the answers for its piece (and its vote), kept from the tet before: runs of tets
+    // share them, so most tets skip the lookups.
+    int32_t lastRoot = -1, lastComp = -1;
+    bool stays = false, noStray = false;
     for (int64_t t = 0; t < n; ++t) {
       progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
-      if (primary[size_t(r)] || volume[size_t(r)] >= limitOf(r, mesh.materials[size_t(t)])) {
+      if (r != lastRoot) {
+        // A piece is one label, so limitOf's label is the same for all its tets.
+        stays = primary[size_t(r)] || volume[size_t(r)] >= limitOf(r, mesh.materials[size_t(t)]);
+        lastRoot = r;
+        lastComp = -1;
+      }
+      if (stays) {
         const int32_t c = vote[size_t(t)];
-        if (c < 0 || strayDone[size_t(t)] || primaryOf.count((uint64_t(uint32_t(c)) << 32) | uint32_t(r))) continue;
-        const auto pv = pieceVotes.find((uint64_t(uint32_t(r)) << 32) | uint32_t(c));
-        if (pv == pieceVotes.end() || pv->second >= compLimit(c)) continue;
+        if (c < 0 || strayDone[size_t(t)]) continue;
+        if (c != lastComp) {
+          // Not a stray: the piece is primary for c, or votes for c with at least c's limit.
+          const auto pv = pieceVotes.find((uint64_t(uint32_t(r)) << 32) | uint32_t(c));
+          noStray = primaryOf.count((uint64_t(uint32_t(c)) << 32) | uint32_t(r)) || pv == pieceVotes.end() ||
+                    pv->second >= compLimit(c);
+          lastComp = c;
+        }
+        if (noStray) continue;
         std::map<int32_t, double> b;
         addBorder(mesh, nb, t, b);
         if (b.empty()) continue;
