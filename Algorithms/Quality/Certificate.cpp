@@ -430,17 +430,37 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     }
   };
   std::vector<EdgeRec> er;
-  for (int64_t t = 0; t < nTets; ++t) {
-    const int32_t L = mesh.materials[size_t(t)];
-    for (int f = 0; f < 4; ++f) {
-      const int32_t o = nb[static_cast<size_t>(4 * t + f)];
-      if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
-      const auto& q = mesh.tets[size_t(t)];
-      const int32_t v[3] = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
-      for (int e = 0; e < 3; ++e) {
-        const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
-        er.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
+  {
+    // Collected on both threads; the sort below orders the records completely, so the result does
+    // not depend on who collected what.
+    std::vector<std::vector<EdgeRec>> parts(static_cast<size_t>(omp_get_max_threads()));
+    LoopCancel edgeCancel(progress);
+#pragma omp parallel
+    {
+      auto& mine = parts[static_cast<size_t>(omp_get_thread_num())];
+#pragma omp for schedule(static)
+      for (int64_t t = 0; t < nTets; ++t) {
+        if (edgeCancel.skip(t)) continue;
+        const int32_t L = mesh.materials[size_t(t)];
+        for (int f = 0; f < 4; ++f) {
+          const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+          if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
+          const auto& q = mesh.tets[size_t(t)];
+          const int32_t v[3] = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
+          for (int e = 0; e < 3; ++e) {
+            const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
+            mine.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
+          }
+        }
       }
+    }
+    edgeCancel.rethrow();
+    size_t total = 0;
+    for (const auto& p : parts) total += p.size();
+    er.reserve(total);
+    for (auto& p : parts) {
+      er.insert(er.end(), p.begin(), p.end());
+      std::vector<EdgeRec>().swap(p);
     }
   }
   cancellableSort(er, progress);
