@@ -487,18 +487,8 @@ struct TreeMesh {
   int64_t transitionTets = 0, bisectedTets = 0;
 };
 
-// `reuse`: a mesh of an earlier round whose arrays are overwritten (their memory is already
-// mapped, where fresh arrays of a 30 M-tet lattice cost a page fault per page).
-TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress, TreeMesh reuse = {}) {
-  TreeMesh tm = std::move(reuse);
-  tm.bg.mesh.points.clear();
-  tm.bg.mesh.tets.clear();
-  tm.bg.mesh.materials.clear();
-  tm.bg.kind.clear();
-  tm.vertexKeys.clear();
-  tm.owner.clear();
-  tm.graded.clear();
-  tm.transitionTets = tm.bisectedTets = 0;
+TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress) {
+  TreeMesh tm;
   BackgroundMesh& bg = tm.bg;
   const int L = tree.finestLevel;
   const std::vector<uint64_t>& sorted = tree.leaves;
@@ -646,30 +636,26 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
     }
    }
   }
-  std::vector<size_t> at(blocks.size() + 1, 0); // where each block's tets go
-  for (size_t b = 0; b < blocks.size(); ++b) at[b + 1] = at[b] + blocks[b].tets.size();
-  const size_t total = at.back();
+  size_t total = 0;
+  for (const Block& blk : blocks) total += blk.tets.size();
   if (total > size_t(kMaxTets))
     throw InputError("the octree background mesh would have more than 2^31 - 1 tets; raise min_cell_size "
                      "(or the sizing field's min_size)");
   cancel.rethrow();
-  // Joined in leaf order, block by block on both threads (each copy into its own range).
-  mesh.tets.resize(total);
-  tm.owner.resize(total);
-  tm.graded.resize(total);
-  LoopCancel joinCancel(progress);
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int64_t bi = 0; bi < nBlocks; ++bi) {
-    if (joinCancel.skip()) continue;
-    Block& blk = blocks[size_t(bi)];
-    std::copy(blk.tets.begin(), blk.tets.end(), mesh.tets.begin() + std::ptrdiff_t(at[size_t(bi)]));
-    std::copy(blk.owner.begin(), blk.owner.end(), tm.owner.begin() + std::ptrdiff_t(at[size_t(bi)]));
-    std::copy(blk.graded.begin(), blk.graded.end(), tm.graded.begin() + std::ptrdiff_t(at[size_t(bi)]));
-    std::vector<TetMesh::Tet>().swap(blk.tets); // freed as it goes
+  // Joined in leaf order, each block freed once copied (the mesh's pages are touched as the
+  // blocks' are let go).
+  mesh.tets.reserve(total);
+  tm.owner.reserve(total);
+  tm.graded.reserve(total);
+  for (Block& blk : blocks) {
+    progress.checkCancel();
+    mesh.tets.insert(mesh.tets.end(), blk.tets.begin(), blk.tets.end());
+    tm.owner.insert(tm.owner.end(), blk.owner.begin(), blk.owner.end());
+    tm.graded.insert(tm.graded.end(), blk.graded.begin(), blk.graded.end());
+    std::vector<TetMesh::Tet>().swap(blk.tets);
     std::vector<std::array<int32_t, 2>>().swap(blk.owner);
     std::vector<uint8_t>().swap(blk.graded);
   }
-  joinCancel.rethrow();
   for (const Block& blk : blocks) {
     tm.transitionTets += blk.transition;
     tm.bisectedTets += blk.bisected;
@@ -733,7 +719,7 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
       touched.insert(touched.end(), created.begin(), created.end());
       st.thinLayerSplits += splitThinLayerLeaves(tree, grid, *thin, progress, std::move(touched), st);
       tree.finish(st, &progress);
-      tm = meshFromTree(tree, grid, progress, std::move(tm));
+      tm = meshFromTree(tree, grid, progress);
       progress.checkCancel();
     }
     progress.endStage();
@@ -828,7 +814,7 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
       st.interfaceSplits += int64_t(toSplit.size());
       st.balanceSplits += tree.balance(std::move(touched), &progress);
       tree.finish(st, &progress);
-      tm = meshFromTree(tree, grid, progress, std::move(tm));
+      tm = meshFromTree(tree, grid, progress);
       progress.checkCancel();
     }
     progress.endStage();

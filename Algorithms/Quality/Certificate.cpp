@@ -431,37 +431,43 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   };
   std::vector<EdgeRec> er;
   {
-    // Collected on both threads; the sort below orders the records completely, so the result does
-    // not depend on who collected what.
-    std::vector<std::vector<EdgeRec>> parts(static_cast<size_t>(omp_get_max_threads()));
-    LoopCancel edgeCancel(progress);
-#pragma omp parallel
-    {
-      auto& mine = parts[static_cast<size_t>(omp_get_thread_num())];
-#pragma omp for schedule(static)
-      for (int64_t t = 0; t < nTets; ++t) {
-        if (edgeCancel.skip(t)) continue;
-        const int32_t L = mesh.materials[size_t(t)];
-        for (int f = 0; f < 4; ++f) {
-          const int32_t o = nb[static_cast<size_t>(4 * t + f)];
-          if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
-          const auto& q = mesh.tets[size_t(t)];
-          const int32_t v[3] = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
-          for (int e = 0; e < 3; ++e) {
-            const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
-            mine.push_back({(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
-          }
+    // Written on both threads straight into place: each thread counts the records of its share
+    // of the tets (a static schedule: the same shares in both loops), then writes them at its
+    // offset. The sort below orders the records completely, so the result does not depend on
+    // who wrote what.
+    const int threads = omp_get_max_threads();
+    std::vector<size_t> count(static_cast<size_t>(threads) + 1, 0);
+    auto records = [&](int64_t t, auto&& emit) {
+      const int32_t L = mesh.materials[size_t(t)];
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[static_cast<size_t>(4 * t + f)];
+        if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
+        const auto& q = mesh.tets[size_t(t)];
+        const int32_t v[3] = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
+        for (int e = 0; e < 3; ++e) {
+          const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
+          emit(EdgeRec{(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
         }
       }
+    };
+#pragma omp parallel num_threads(threads)
+    {
+      const size_t me = static_cast<size_t>(omp_get_thread_num());
+      size_t mine = 0;
+#pragma omp for schedule(static)
+      for (int64_t t = 0; t < nTets; ++t) records(t, [&](const EdgeRec&) { ++mine; });
+      count[me + 1] = mine;
+#pragma omp barrier
+#pragma omp single
+      {
+        for (size_t i = 0; i < static_cast<size_t>(threads); ++i) count[i + 1] += count[i];
+        er.resize(count.back());
+      }
+      size_t at = count[me];
+#pragma omp for schedule(static)
+      for (int64_t t = 0; t < nTets; ++t) records(t, [&](const EdgeRec& r) { er[at++] = r; });
     }
-    edgeCancel.rethrow();
-    size_t total = 0;
-    for (const auto& p : parts) total += p.size();
-    er.reserve(total);
-    for (auto& p : parts) {
-      er.insert(er.end(), p.begin(), p.end());
-      std::vector<EdgeRec>().swap(p);
-    }
+    progress.checkCancel();
   }
   cancellableSort(er, progress);
   uint64_t lastBadEdge = ~uint64_t(0);
