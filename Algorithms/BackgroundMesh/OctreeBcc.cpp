@@ -655,8 +655,6 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
     std::vector<TetMesh::Tet>().swap(blk.tets);
     std::vector<std::array<int32_t, 2>>().swap(blk.owner);
     std::vector<uint8_t>().swap(blk.graded);
-  }
-  for (const Block& blk : blocks) {
     tm.transitionTets += blk.transition;
     tm.bisectedTets += blk.bisected;
   }

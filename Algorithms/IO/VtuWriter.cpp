@@ -141,12 +141,12 @@ public:
   Writer(const std::string& path, std::ofstream& out, const VtuWriteOptions& options,
          uint64_t totalBytes)
       : path_(path), out_(out), progress_(currentProgress()),
-        chunk_(static_cast<size_t>(std::max(1, options.blocksPerChunk))),
+        chunk_(static_cast<size_t>(std::max(1, options.blocksPerChunk))), store_(options.storeIncompressible),
         bound_(compressBound(kBlockBytes)), total_(totalBytes) {
     const size_t threads = static_cast<size_t>(std::max(1, omp_get_max_threads()));
     for (size_t t = 0; t < threads; ++t) {
       deflaters_.push_back(std::make_unique<Deflater>(kZlibLevel));
-      storers_.push_back(std::make_unique<Deflater>(options.storeIncompressible ? 0 : kZlibLevel));
+      if (store_) storers_.push_back(std::make_unique<Deflater>(0));
     }
     scratch_.resize(threads * kBlockBytes);
     buffer_.resize(chunk_ * bound_);
@@ -215,7 +215,7 @@ public:
         const uint64_t b = first + uint64_t(k);
         if (!leads(b)) continue;
         const double raw = double(std::min<uint64_t>(kBlockBytes, bytes - b * kBlockBytes));
-        storeGroup[b / kGroupBlocks] = double(sizes_[size_t(k)]) > kStoreRatio * raw;
+        storeGroup[b / kGroupBlocks] = store_ && double(sizes_[size_t(k)]) > kStoreRatio * raw;
       }
 #pragma omp parallel for schedule(dynamic, 1)
       for (int k = 0; k < count; ++k) {
@@ -270,11 +270,12 @@ private:
   std::ofstream& out_;
   Progress* progress_;
   const size_t chunk_;
+  const bool store_; // storeIncompressible
   const size_t bound_; // compressed size of a block at worst
   const uint64_t total_;
   uint64_t done_ = 0;
   std::vector<std::unique_ptr<Deflater>> deflaters_; // one per thread
-  std::vector<std::unique_ptr<Deflater>> storers_;   // one per thread: level 0 (or 1 when not storing)
+  std::vector<std::unique_ptr<Deflater>> storers_;   // one per thread, level 0 (none when not storing)
   std::vector<unsigned char> scratch_;               // one block per thread, for made arrays
   std::vector<unsigned char> buffer_;                // one slot of bound_ bytes per block
   std::vector<size_t> sizes_;

@@ -21,8 +21,8 @@ struct VtuWriteOptions {
   bool int64Cells = false;
   // Blocks compressed together between two writes and cancellation checks (4 MiB of input).
   int blocksPerChunk = 128;
-  // Arrays that zlib barely shrinks (judged by their first block) go out as stored zlib blocks;
-  // off: every block at level 1, byte for byte what VTK's writer makes at that level.
+  // Blocks that zlib barely shrinks (judged by the first block of each group of 8) go out as
+  // stored zlib blocks; off: every block at level 1, byte for byte what VTK's writer makes.
   bool storeIncompressible = true;
 };
 
