@@ -59,6 +59,9 @@ struct Constraint {
   // Axes (bit a) whose coordinate must stay exactly as it is: the vertex is on an axis-aligned
   // planar piece of the boundary.
   uint8_t keepAxes = 0;
+  // A free move (dof 3) of a vertex that is otherwise constrained (the last resort): it moves at
+  // most as far as a constrained vertex does.
+  bool constrainedReach = false;
 };
 
 // True when (a, b, c, d) is an even permutation of the stored tet q (so it has q's orientation).
@@ -80,6 +83,9 @@ public:
   bool splitEdge(int32_t t, std::vector<int32_t>& touched);
   // Removes a cap tet on a curved boundary (see MeshImprovement.h, "peel").
   bool peelCap(int32_t t, std::vector<int32_t>& touched);
+  // Removes a tet on a curved boundary that the passes left outside the targets (the last resort
+  // of "peel" in MeshImprovement.h); creates nothing.
+  bool peelBoundaryTet(int32_t t);
 
 private:
   TetMesh& m_;
@@ -87,6 +93,7 @@ private:
   Progress& progress_;
   double goal_ = 0.0;
   ImproveStats st_;
+  bool lastResort_ = false; // the phase after the passes: constrained vertices may move freely
 
   std::vector<uint8_t> alive_;
   std::vector<int32_t> origin_;                     // tet -> input tet whose cell-field values it takes

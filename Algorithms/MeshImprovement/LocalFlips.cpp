@@ -319,4 +319,107 @@ bool Improver::peelCap(int32_t t, std::vector<int32_t>& touched) {
   return true;
 }
 
+bool Improver::peelBoundaryTet(int32_t t) {
+  // A tet with one to three faces on a curved boundary whose other faces lie against tets of its
+  // own material (see MeshImprovement.h, "peel", the last resort). It goes when the boundary stays
+  // a manifold at each of its corners (the boundary faces around the corner, after, form one
+  // cycle: no edge or corner where two sheets of the surface touch), its material stays connected
+  // around it, no face on an axis-aligned plane is involved (a box face stays the domain), and its
+  // volume fits the material's budget.
+  const Tet q = m_.tets[size_t(t)];
+  const int32_t mat = m_.materials[size_t(t)];
+  auto axisAligned = [&](int32_t x, int32_t y, int32_t z) {
+    const Vec3 n = cross(m_.points[size_t(y)] - m_.points[size_t(x)], m_.points[size_t(z)] - m_.points[size_t(x)]);
+    for (int ax = 0; ax < 3; ++ax)
+      if (std::abs(n[size_t(ax)]) >= (1.0 - 1e-12) * norm(n)) return true;
+    return false;
+  };
+  std::vector<int32_t> sameNeighbours;
+  int onBoundary = 0;
+  for (int f = 0; f < 4; ++f) {
+    const int32_t o = oppositeTet(t, f);
+    if (o < 0) {
+      ++onBoundary;
+      continue;
+    }
+    if (m_.materials[size_t(o)] != mat) return false;
+    sameNeighbours.push_back(o);
+  }
+  if (onBoundary == 0 || onBoundary == 4) return false;
+  std::vector<int32_t> star, region;
+  std::vector<std::array<int32_t, 2>> link;
+  for (int32_t v : q) {
+    starOf(v, star);
+    link.clear();
+    for (int32_t u : star) {
+      if (u != t && m_.materials[size_t(u)] == mat) region.push_back(u);
+      if (u == t) continue;
+      const Tet& w = m_.tets[size_t(u)];
+      for (int g = 0; g < 4; ++g) {
+        if (w[size_t(g)] == v) continue; // the face omitting v
+        const int32_t o = oppositeTet(u, g);
+        if (o >= 0 && o != t) continue;
+        const int* fv = kTetFaceVertices[g];
+        if (axisAligned(w[size_t(fv[0])], w[size_t(fv[1])], w[size_t(fv[2])])) return false;
+        std::array<int32_t, 2> e{};
+        int k = 0;
+        for (int j = 0; j < 3; ++j)
+          if (w[size_t(fv[j])] != v) e[size_t(k++)] = w[size_t(fv[j])];
+        link.push_back(e);
+      }
+    }
+    if (star.size() == 1) continue; // v goes with the tet
+    // One cycle: every link vertex on exactly two link edges, and a walk covers every edge.
+    std::vector<int32_t> ends;
+    for (const auto& e : link) ends.insert(ends.end(), e.begin(), e.end());
+    std::sort(ends.begin(), ends.end());
+    if (ends.empty()) return false;
+    for (size_t i = 0; i < ends.size(); i += 2)
+      if (i + 1 >= ends.size() || ends[i] != ends[i + 1] || (i + 2 < ends.size() && ends[i + 2] == ends[i])) return false;
+    std::vector<uint8_t> used(link.size(), 0);
+    int32_t at = link[0][1];
+    used[0] = 1;
+    size_t walked = 1;
+    for (bool moved = true; moved;) {
+      moved = false;
+      for (size_t i = 0; i < link.size(); ++i)
+        if (!used[i] && (link[i][0] == at || link[i][1] == at)) {
+          at = link[i][0] == at ? link[i][1] : link[i][0];
+          used[i] = 1;
+          ++walked;
+          moved = true;
+          break;
+        }
+    }
+    if (walked != link.size()) return false;
+  }
+  // The material stays connected: its tets around the corners, without t, join every neighbour.
+  if (sameNeighbours.size() > 1) {
+    std::sort(region.begin(), region.end());
+    region.erase(std::unique(region.begin(), region.end()), region.end());
+    std::vector<uint8_t> seen(region.size(), 0);
+    std::vector<int32_t> queue{sameNeighbours[0]};
+    seen[size_t(std::lower_bound(region.begin(), region.end(), sameNeighbours[0]) - region.begin())] = 1;
+    for (size_t h = 0; h < queue.size(); ++h)
+      for (int g = 0; g < 4; ++g) {
+        const int32_t o = oppositeTet(queue[h], g);
+        if (o < 0) continue;
+        const auto it = std::lower_bound(region.begin(), region.end(), o);
+        if (it == region.end() || *it != o || seen[size_t(it - region.begin())]) continue;
+        seen[size_t(it - region.begin())] = 1;
+        queue.push_back(o);
+      }
+    for (int32_t n : sameNeighbours)
+      if (!seen[size_t(std::lower_bound(region.begin(), region.end(), n) - region.begin())]) return false;
+  }
+  const size_t l = labelIndex(mat);
+  const double vol = signedTetVolume(m_.points[size_t(q[0])], m_.points[size_t(q[1])], m_.points[size_t(q[2])],
+                                     m_.points[size_t(q[3])]);
+  if (std::abs(change_[l] - vol) > budget_[l]) return false;
+  change_[l] -= vol;
+  killTet(t);
+  ++st_.boundaryPeels;
+  return true;
+}
+
 } // namespace tetflow::improve_detail

@@ -154,6 +154,14 @@ Constraint Improver::classify(int32_t v, const LocalStar& s) const {
     c.dof = 1;
     c.dir = unit(cross(boundary[0], boundary[1]));
   }
+  if (lastResort_ && c.dof < 3 && c.keepAxes == 0) {
+    // The last resort: a vertex on an interface, a curve or corner where materials meet, or a
+    // crease of a curved boundary (where a stripped exterior's label repair left a voxel's step)
+    // moves freely, as far as a constrained vertex, under the volume budget. Its surroundings'
+    // labels and connectivity stay; only the box's planar faces keep their vertices on them.
+    c.dof = 3;
+    c.constrainedReach = true;
+  }
   return c;
 }
 
@@ -203,7 +211,7 @@ double Improver::optimizePosition(int32_t v, const LocalStar& s, Vec3& bestPos, 
   search.dir = c.dir;
   search.initialStep = 0.15 * len;
   search.finalStep = 0.002 * len;
-  search.maxMove = c.dof == 3 ? 0.3 * len : 0.1 * len;
+  search.maxMove = c.dof == 3 && !c.constrainedReach ? 0.3 * len : 0.1 * len;
   // A trial counts only within the volume budget; its per-label change is kept when accepted.
   bestPos = search.run(
       start, best,

@@ -13,6 +13,7 @@ namespace tetflow {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
+constexpr int kLastResortRounds = 4; // rounds of the last resort after the passes
 } // namespace
 
 namespace {
@@ -360,6 +361,51 @@ ImproveStats Improver::run() {
       bad.swap(next);
       if (!changed) break;
     }
+    if (!p_.fixSurfaces && (p_.smooth || p_.peel)) {
+      // The last resort, for tets the passes left outside the targets themselves (MeshImprovement.h,
+      // "last resort"): their constrained vertices may move freely (within the budget), and a tet
+      // on a curved boundary may be peeled off. A peel can put the next tet on the boundary: up to
+      // kLastResortRounds rounds, while something changes.
+      lastResort_ = true;
+      for (int round = 0; round < kLastResortRounds && !bad.empty(); ++round) {
+        std::vector<std::pair<double, int32_t>> order;
+        for (int32_t t : bad)
+          if (alive_[size_t(t)]) {
+            const double sc = score(m_.tets[size_t(t)]);
+            if (sc < p_.min_angle) order.push_back({sc, t});
+          }
+        std::sort(order.begin(), order.end());
+        order.erase(std::unique(order.begin(), order.end()), order.end());
+        std::vector<int32_t> next;
+        bool changed = false;
+        for (const auto& [sc, t] : order) {
+          progress_.checkCancel();
+          if (!alive_[size_t(t)] || score(m_.tets[size_t(t)]) >= p_.min_angle) continue;
+          touched.clear();
+          if (p_.smooth) {
+            const Tet q = m_.tets[size_t(t)];
+            for (int32_t v : q) {
+              const int64_t before = st_.smoothed;
+              changed = smoothVertex(v, touched) || changed;
+              st_.lastResortMoves += st_.smoothed - before;
+              if (score(m_.tets[size_t(t)]) >= goal_) break;
+            }
+          }
+          if (p_.peel && score(m_.tets[size_t(t)]) < p_.min_angle && peelBoundaryTet(t)) changed = true;
+          if (alive_[size_t(t)] && score(m_.tets[size_t(t)]) < goal_) next.push_back(t);
+          for (int32_t u : touched)
+            if (alive_[size_t(u)] && score(m_.tets[size_t(u)]) < goal_) next.push_back(u);
+        }
+        // Tets the passes left below the goal but above the target stay candidates for the next round.
+        for (int32_t t : bad)
+          if (alive_[size_t(t)] && score(m_.tets[size_t(t)]) < goal_) next.push_back(t);
+        std::sort(next.begin(), next.end());
+        next.erase(std::unique(next.begin(), next.end()), next.end());
+        bad.swap(next);
+        if (!changed) break;
+      }
+      lastResort_ = false;
+    }
     compact();
     alive_.assign(m_.tets.size(), 1);
   }
@@ -420,6 +466,8 @@ void writeImproveReport(const ImproveStats& s, const ImproveParams& p, Report& r
   rep.set("improve_flips23", s.flips23);
   rep.set("improve_collapses", s.collapses);
   rep.set("improve_caps_removed", s.capsRemoved);
+  rep.set("improve_boundary_peels", s.boundaryPeels);
+  rep.set("improve_last_resort_moves", s.lastResortMoves);
   rep.set("improve_insertions", s.insertions);
   rep.set("improve_passes", int64_t(s.passes));
   rep.set("improve_max_volume_change_percent", s.maxVolumeChangePercent());

@@ -31,29 +31,45 @@
 // and when none helps, the vertices around the tet are smoothed (each for its own star), which
 // often makes room for the next pass. Up to `passes` passes run over the tets still below the goal
 // and the ones the operations created.
+// The last resort, for tets the passes left outside the targets themselves (nothing happens when
+// there are none, so a mesh the passes fix is not touched by it), worst first, in up to 4 rounds:
+//   move      each vertex of the tet is smoothed again, now with every vertex that is not on a
+//             planar box face moving freely (on an interface, a curve or corner where materials
+//             meet, a crease of a curved boundary), at most as far as a constrained vertex (10 % of
+//             its longest edge) and under the same volume budget;
+//   peel      a tet with one to three faces on a curved boundary, its other faces against tets of
+//             its own material, is removed when the boundary stays a 2-manifold at each of its
+//             corners (the boundary faces around the corner form one cycle), its material stays
+//             connected among the tets around its corners, none of the faces involved lies on an
+//             axis-aligned plane, and its volume fits the budget.
+// Cleaving a segmentation whose exterior is stripped leaves such tets where the label repair made
+// the outer surface follow a voxel's step (a pit or a crease), and at curves where three materials
+// meet.
 // Labels are preserved because:
 //   - flips and collapses re-tile a region of one material with tets of that material, and an
 //     edge split halves tets in place: no material's region changes at all; an interface edge
 //     removal moves one tet's worth of volume across a two-material interface (budgeted) and keeps
 //     both materials' tets around the edge (each arc keeps at least one triangle's pair of tets);
 //     a peeled cap leaves its material (budgeted) and hangs on a face of its own material only, so
-//     no component or contact goes with it;
-//   - a vertex moves only as its surroundings allow: inside one material freely; on a surface
-//     between two labels (the outside counts as a label) in its tangent plane; on a curve where
-//     three labels meet along the curve; where four or more labels meet, or at a corner of the
-//     boundary, not at all. On a planar surface (a box face) or a straight curve (a box edge) the
-//     move keeps the vertex on it exactly. A curved boundary (a stripped exterior) is a surface
-//     against the outside: where it is smooth (every boundary face at the vertex within 30 degrees
-//     of their mean normal) the vertex moves in the mean tangent plane, or along the curve where
-//     it meets one interface; at sharper creases it stays. Elsewhere (interfaces, curved
-//     boundaries) a tangent move changes the materials' volumes to second order: each move is
-//     accepted only while every material's net volume change stays within max_volume_change
+//     no component or contact goes with it (the last resort's peel: faces of its own material only,
+//     its material connected without it);
+//   - a vertex moves only as its surroundings allow (in the passes; the last resort frees it within
+//     the budget, and no move changes a tet's label or the connectivity): inside one material
+//     freely; on a surface between two labels (the outside counts as a label) in its tangent plane;
+//     on a curve where three labels meet along the curve; where four or more labels meet, or at a
+//     corner of the boundary, not at all. On a planar surface (a box face) or a straight curve (a
+//     box edge) the move keeps the vertex on it exactly. A curved boundary (a stripped exterior) is
+//     a surface against the outside: where it is smooth (every boundary face at the vertex within
+//     30 degrees of their mean normal) the vertex moves in the mean tangent plane, or along the
+//     curve where it meets one interface; at sharper creases it stays. Elsewhere (interfaces,
+//     curved boundaries) a tangent move changes the materials' volumes to second order: each move
+//     is accepted only while every material's net volume change stays within max_volume_change
 //     percent of its volume, and a constrained vertex moves at most 10 % of its longest edge.
 //   - no operation ever leaves a tet with a score below the worst it replaced, nor an inverted or
 //     flat tet; connectivity changes only inside one material, so the label topology (components,
 //     contacts) is that of the input.
-// The domain stays the domain: boundary vertices move only within a planar boundary patch or
-// along a straight boundary edge, and corners stay.
+// The domain stays the domain: a boundary vertex on a planar boundary patch or a straight boundary
+// edge stays on it, and corners stay.
 //
 // Fields: point fields are kept (interpolated linearly at new midpoints; vertices removed by a
 // collapse drop their values); a cell field's value on a new tet is that of one of the tets it
@@ -99,6 +115,8 @@ struct ImproveStats {
   int64_t belowMinBefore = 0, aboveMaxBefore = 0, belowMinAfter = 0, aboveMaxAfter = 0;
   int64_t smoothed = 0, edgeRemovals = 0, interfaceFlips = 0, flips23 = 0, collapses = 0, insertions = 0;
   int64_t capsRemoved = 0; // "peel"
+  int64_t boundaryPeels = 0;   // "last resort": tets peeled off a curved boundary
+  int64_t lastResortMoves = 0; // "last resort": moves of otherwise constrained vertices
   int passes = 0;
   std::vector<ImproveMaterial> materials; // ascending label
   std::vector<ImproveTet> unfixed;        // the worst remaining (at most 20), worst first

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <omp.h>
+#include <random>
 #include <set>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
@@ -161,6 +162,34 @@ TEST(MeshImprovement, RandomLabelVolumesReachTheTargetsAndKeepTheirLabels) {
   EXPECT_LE(worstMax, 160.0);
   EXPECT_EQ(unfixed, 0);
   EXPECT_LE(volChange, 0.05 + 1e-9);
+}
+
+// The last resort (after the passes, vertices on interfaces and the curves where materials meet
+// move freely within the budget): with targets no cleaved mesh meets, smoothing the only operation
+// and two passes, it does work, and labels, volumes, the box and validity stay as the passes keep them.
+TEST(MeshImprovement, TheLastResortFreesConstrainedVerticesAndKeepsTheLabels) {
+  ImproveParams ip;
+  ip.min_angle = 18;
+  ip.max_angle = 140;
+  ip.passes = 2;
+  ip.flip = ip.collapse = ip.insert = ip.peel = false;
+  int64_t moves = 0, unfixedWith = 0, unfixedWithout = 0;
+  for (int kind = 0; kind < 4; ++kind)
+    for (unsigned seed = 1; seed <= 2; ++seed) {
+      const std::string what = "kind " + std::to_string(kind) + " seed " + std::to_string(seed);
+      const Case c = cleaveAndImprove(kind, 1000 * kind + seed, 2.6, ip);
+      expectLabelPreserving(c, what);
+      EXPECT_LE(c.stats.maxVolumeChangePercent(), 0.05 + 1e-9) << what;
+      moves += c.stats.lastResortMoves;
+      unfixedWith += c.stats.unfixedCount;
+      ImproveParams off = ip;
+      off.smooth = false; // nothing at all: how many miss the targets as cleaved
+      unfixedWithout += cleaveAndImprove(kind, 1000 * kind + seed, 2.6, off).stats.unfixedCount;
+    }
+  std::printf("  last resort: %lld moves, %lld tets outside [18, 140] left of %lld as cleaved\n", (long long)moves,
+              (long long)unfixedWith, (long long)unfixedWithout);
+  EXPECT_GT(moves, 0);
+  EXPECT_LT(unfixedWith, unfixedWithout);
 }
 
 // Cleaver's spheres at every lattice size of the README's quality table: the cleaver alone leaves
@@ -429,4 +458,154 @@ TEST(MeshImprovement, CurvedBoundaryCapsArePeeledAndBoundaryVerticesSlideOnTheSu
     for (int32_t v : f) worst = std::max(worst, std::abs(norm(m.points[size_t(v)]) - R));
   EXPECT_LT(worst, 0.01 * R);
   EXPECT_GT(st.smoothed, 0);
+}
+
+namespace {
+
+// The boundary is a 2-manifold: at every vertex its boundary faces form one cycle around it (no
+// edge in more than two of them, no corner where two sheets touch). Returns the vertices where not.
+int64_t nonManifoldBoundaryVertices(const TetMesh& m) {
+  std::map<int32_t, std::vector<std::array<int32_t, 2>>> link;
+  for (const auto& f : tetflow::test::boundaryFaces(m))
+    for (int i = 0; i < 3; ++i) link[f[size_t(i)]].push_back({f[size_t((i + 1) % 3)], f[size_t((i + 2) % 3)]});
+  int64_t bad = 0;
+  for (const auto& [v, edges] : link) {
+    std::map<int32_t, int> degree;
+    for (const auto& e : edges) ++degree[e[0]], ++degree[e[1]];
+    bool ok = std::all_of(degree.begin(), degree.end(), [](const auto& d) { return d.second == 2; });
+    // connected: walk from the first edge
+    std::vector<bool> used(edges.size(), false);
+    int32_t at = edges[0][1];
+    used[0] = true;
+    size_t walked = 1;
+    for (bool moved = true; moved && ok;) {
+      moved = false;
+      for (size_t i = 0; i < edges.size(); ++i)
+        if (!used[i] && (edges[i][0] == at || edges[i][1] == at)) {
+          at = edges[i][0] == at ? edges[i][1] : edges[i][0];
+          used[i] = true;
+          ++walked;
+          moved = true;
+          break;
+        }
+    }
+    if (!ok || walked != edges.size()) ++bad;
+  }
+  return bad;
+}
+
+// A ball of radius R: the Delaunay tets of `onSphere` Fibonacci points on its sphere and random
+// points inside; material 3, or 4 within 0.5 R of the centre when `twoMaterials`.
+TetMesh delaunayBall(uint32_t seed, int onSphere, int inside, double R, bool twoMaterials) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < onSphere; ++i) {
+    const double z = 1 - 2 * (i + 0.5) / onSphere, r = std::sqrt(1 - z * z), phi = i * 2.399963229728653;
+    pts.push_back({R * r * std::cos(phi), R * r * std::sin(phi), R * z});
+  }
+  while (int(pts.size()) < onSphere + inside) {
+    const Vec3 p{R * u(rng), R * u(rng), R * u(rng)};
+    if (norm(p) < 0.9 * R) pts.push_back(p);
+  }
+  TetMesh m;
+  m.tets = tetgenDelaunay(pts, "");
+  m.points = pts;
+  for (size_t t = 0; t < m.tets.size(); ++t) {
+    const Vec3 c = 0.25 * (pts[size_t(m.tets[t][0])] + pts[size_t(m.tets[t][1])] + pts[size_t(m.tets[t][2])] +
+                           pts[size_t(m.tets[t][3])]);
+    m.materials.push_back(twoMaterials && norm(c) < 0.5 * R ? 4 : 3);
+  }
+  return m;
+}
+
+} // namespace
+
+TEST(MeshImprovement, TheLastResortPeelKeepsTheBoundaryAManifoldAndTheLabelsWhole) {
+  // Targets no Delaunay ball meets (every tet below 40 degrees is "bad") and every operation but
+  // the peel off: what is left is the last resort, which tries every bad tet on the boundary.
+  // Whatever it takes off, the boundary stays a closed 2-manifold, no material splits or gains a
+  // contact, and each material's volume stays within its budget.
+  int64_t peeledInAll = 0;
+  for (uint32_t seed = 1; seed <= 6; ++seed) {
+    SCOPED_TRACE(::testing::Message() << "seed " << seed);
+    TetMesh m = delaunayBall(seed, 120, 300, 10.0, seed % 2 == 0);
+    NullProgress np;
+    const QualityResult q0 = evaluateQuality(m, QualityParams{}, np);
+    tetflow::test::expectValidClosedMesh(q0);
+    ASSERT_EQ(nonManifoldBoundaryVertices(m), 0);
+    const LabelShape shape = labelShape(m);
+    const auto vol0 = labelVolumes(m);
+    const int64_t tets0 = int64_t(m.tets.size());
+    ImproveParams p;
+    p.min_angle = 40;
+    p.max_angle = 120;
+    p.max_volume_change = 0.1;
+    p.smooth = p.flip = p.collapse = p.insert = false;
+    const ImproveStats st = improveMesh(m, p, np);
+    const QualityResult q = evaluateQuality(m, QualityParams{}, np);
+    tetflow::test::expectValidClosedMesh(q);
+    EXPECT_EQ(nonManifoldBoundaryVertices(m), 0);
+    EXPECT_TRUE(labelShape(m) == shape);
+    const auto vol = labelVolumes(m);
+    for (const auto& [label, v] : vol0) EXPECT_LE(std::abs(vol.at(label) - v), 0.001 * v * (1 + 1e-9)) << "label " << label;
+    EXPECT_EQ(int64_t(m.tets.size()), tets0 - st.boundaryPeels - st.capsRemoved);
+    peeledInAll += st.boundaryPeels;
+  }
+  EXPECT_GT(peeledInAll, 0); // it did take tets off
+}
+
+TEST(MeshImprovement, TheLastResortPeelRemovesAFlatTetOnTheBoundary) {
+  // A ball whose one boundary tet is squashed flat: its interior corner moved almost onto its
+  // boundary face. With the other operations off only the peel can fix it, and it does; with the
+  // peel off the tet stays.
+  TetMesh ball = delaunayBall(11, 120, 300, 10.0, false);
+  const auto faces = tetflow::test::boundaryFaces(ball);
+  std::set<std::array<int32_t, 3>> onBoundary(faces.begin(), faces.end());
+  std::vector<int> uses(ball.points.size(), 0);
+  for (const auto& f : faces)
+    for (int32_t v : f) ++uses[size_t(v)];
+  bool made = false;
+  for (size_t t = 0; t < ball.tets.size() && !made; ++t) {
+    const auto q = ball.tets[t];
+    for (int k = 0; k < 4 && !made; ++k) {
+      std::array<int32_t, 3> s{q[size_t((k + 1) % 4)], q[size_t((k + 2) % 4)], q[size_t((k + 3) % 4)]};
+      std::sort(s.begin(), s.end());
+      const int32_t apex = q[size_t(k)];
+      if (!onBoundary.count(s) || uses[size_t(apex)] > 0) continue; // a boundary face, an interior apex
+      const Vec3 c = (1.0 / 3) * (ball.points[size_t(s[0])] + ball.points[size_t(s[1])] + ball.points[size_t(s[2])]);
+      TetMesh m = ball;
+      m.points[size_t(apex)] = c + 0.03 * (m.points[size_t(apex)] - c); // 3 % of its height left
+      NullProgress np;
+      const QualityResult q0 = evaluateQuality(m, QualityParams{}, np);
+      if (q0.inverted > 0 || q0.zeroVolume > 0) continue;
+      made = true;
+      const TetMesh m0 = m;
+      ImproveParams p;
+      p.smooth = p.flip = p.collapse = p.insert = false;
+      TetMesh kept = m;
+      ImproveParams off = p;
+      off.peel = false;
+      const ImproveStats stOff = improveMesh(kept, off, np);
+      EXPECT_GT(stOff.unfixedCount, 0);
+      EXPECT_EQ(kept.tets.size(), m.tets.size());
+      const ImproveStats st = improveMesh(m, p, np);
+      const QualityResult q = evaluateQuality(m, QualityParams{}, np);
+      tetflow::test::expectValidClosedMesh(q);
+      EXPECT_EQ(nonManifoldBoundaryVertices(m), 0);
+      EXPECT_GE(st.boundaryPeels, 1);
+      EXPECT_LT(st.unfixedCount, stOff.unfixedCount);
+      const std::set<std::array<double, 3>> flat{
+          {m0.points[size_t(s[0])][0], m0.points[size_t(s[0])][1], m0.points[size_t(s[0])][2]},
+          {m0.points[size_t(s[1])][0], m0.points[size_t(s[1])][1], m0.points[size_t(s[1])][2]},
+          {m0.points[size_t(s[2])][0], m0.points[size_t(s[2])][1], m0.points[size_t(s[2])][2]},
+          {m0.points[size_t(apex)][0], m0.points[size_t(apex)][1], m0.points[size_t(apex)][2]}};
+      for (const auto& t2 : m.tets) { // the flat tet is gone
+        std::set<std::array<double, 3>> at;
+        for (int32_t v : t2) at.insert({m.points[size_t(v)][0], m.points[size_t(v)][1], m.points[size_t(v)][2]});
+        EXPECT_NE(at, flat);
+      }
+    }
+  }
+  ASSERT_TRUE(made);
 }
