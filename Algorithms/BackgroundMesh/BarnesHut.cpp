@@ -108,25 +108,40 @@ BarnesHutTree::Sample BarnesHutTree::evaluate(const Vec3& x, int64_t self, doubl
     s.potential += q / r;
     s.field = s.field + (q / (r2 * r)) * d;
   };
+  auto direct = [&](const Node& n) {
+    for (int32_t i = n.begin; i < n.end; ++i)
+      if (index_[size_t(i)] != self) add(pos_[size_t(i)], q_[size_t(i)]);
+  };
+  const double theta2 = theta * theta;
+  // A cell far enough (edge < theta * distance to its centre of charge) counts as one charge there;
+  // a nearer leaf is summed directly; a nearer inner cell is opened. Each cell is judged when its
+  // parent is opened, so only cells to open go on the stack.
+  auto far = [&](const Node& n) {
+    const Vec3 d = x - n.centre;
+    return n.size * n.size < theta2 * dot(d, d);
+  };
+  const Node& root = nodes_[0];
+  if (root.charge <= 0) return s;
+  if (far(root)) {
+    add(root.centre, root.charge);
+    return s;
+  }
+  if (root.firstChild < 0) {
+    direct(root);
+    return s;
+  }
   int32_t stack[512];
   int top = 0;
   stack[top++] = 0;
-  const double theta2 = theta * theta;
   while (top > 0) {
     const Node& n = nodes_[size_t(stack[--top])];
-    if (n.charge <= 0) continue;
-    const Vec3 d = x - n.centre;
-    const double r2 = dot(d, d);
-    if (n.firstChild >= 0 && n.size * n.size < theta2 * r2) {
-      add(n.centre, n.charge);
-      continue;
+    for (int32_t c = n.firstChild; c < n.firstChild + n.children; ++c) {
+      const Node& k = nodes_[size_t(c)];
+      if (k.charge <= 0) continue;
+      if (far(k)) add(k.centre, k.charge);
+      else if (k.firstChild < 0) direct(k);
+      else stack[top++] = c;
     }
-    if (n.firstChild < 0) {
-      for (int32_t i = n.begin; i < n.end; ++i)
-        if (index_[size_t(i)] != self) add(pos_[size_t(i)], q_[size_t(i)]);
-      continue;
-    }
-    for (int32_t c = 0; c < n.children; ++c) stack[top++] = n.firstChild + c;
   }
   return s;
 }
