@@ -86,6 +86,10 @@ public:
   // Removes a tet on a curved boundary that the passes left outside the targets (the last resort
   // of "peel" in MeshImprovement.h); creates nothing.
   bool peelBoundaryTet(int32_t t);
+  // Removes t when its volume fits its material's budget (counted as going to the outside).
+  bool removeWithinBudget(int32_t t);
+  // True when the triangle (x, y, z) lies in a plane normal to a coordinate axis (a box face).
+  bool onAxisPlane(int32_t x, int32_t y, int32_t z) const;
 
 private:
   TetMesh& m_;

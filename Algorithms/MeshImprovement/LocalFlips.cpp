@@ -279,6 +279,13 @@ bool Improver::splitEdge(int32_t t, std::vector<int32_t>& touched) {
   return false;
 }
 
+bool Improver::onAxisPlane(int32_t x, int32_t y, int32_t z) const {
+  const Vec3 n = cross(m_.points[size_t(y)] - m_.points[size_t(x)], m_.points[size_t(z)] - m_.points[size_t(x)]);
+  for (int ax = 0; ax < 3; ++ax)
+    if (std::abs(n[size_t(ax)]) >= (1.0 - 1e-12) * norm(n)) return true;
+  return false;
+}
+
 bool Improver::peelCap(int32_t t, std::vector<int32_t>& touched) {
   // A cap on a curved boundary: three faces on the boundary, none on an axis-aligned plane (a box
   // face stays the domain), the fourth corner in no other tet, and the remaining face against a
@@ -300,22 +307,24 @@ bool Improver::peelCap(int32_t t, std::vector<int32_t>& touched) {
   if (star.size() != 1) return false;
   const int32_t mat = m_.materials[size_t(t)];
   if (m_.materials[size_t(neighbour)] != mat) return false;
-  for (int f = 0; f < 4; ++f) {
-    if (f == inner) continue;
-    const Vec3 &a = m_.points[size_t(q[size_t(kTetFaceVertices[f][0])])], &b = m_.points[size_t(q[size_t(kTetFaceVertices[f][1])])],
-               &c = m_.points[size_t(q[size_t(kTetFaceVertices[f][2])])];
-    const Vec3 n = cross(b - a, c - a);
-    for (int ax = 0; ax < 3; ++ax)
-      if (std::abs(n[size_t(ax)]) >= (1.0 - 1e-12) * norm(n)) return false;
-  }
-  const size_t l = labelIndex(mat);
+  for (int f = 0; f < 4; ++f)
+    if (f != inner && onAxisPlane(q[size_t(kTetFaceVertices[f][0])], q[size_t(kTetFaceVertices[f][1])],
+                                  q[size_t(kTetFaceVertices[f][2])]))
+      return false;
+  (void)touched; // nothing created: the tet's neighbour keeps its score
+  if (!removeWithinBudget(t)) return false;
+  ++st_.capsRemoved;
+  return true;
+}
+
+bool Improver::removeWithinBudget(int32_t t) {
+  const Tet& q = m_.tets[size_t(t)];
+  const size_t l = labelIndex(m_.materials[size_t(t)]);
   const double vol = signedTetVolume(m_.points[size_t(q[0])], m_.points[size_t(q[1])], m_.points[size_t(q[2])],
                                      m_.points[size_t(q[3])]);
   if (std::abs(change_[l] - vol) > budget_[l]) return false;
   change_[l] -= vol;
   killTet(t);
-  (void)touched; // nothing created: the tet's neighbour keeps its score
-  ++st_.capsRemoved;
   return true;
 }
 
@@ -328,12 +337,6 @@ bool Improver::peelBoundaryTet(int32_t t) {
   // volume fits the material's budget.
   const Tet q = m_.tets[size_t(t)];
   const int32_t mat = m_.materials[size_t(t)];
-  auto axisAligned = [&](int32_t x, int32_t y, int32_t z) {
-    const Vec3 n = cross(m_.points[size_t(y)] - m_.points[size_t(x)], m_.points[size_t(z)] - m_.points[size_t(x)]);
-    for (int ax = 0; ax < 3; ++ax)
-      if (std::abs(n[size_t(ax)]) >= (1.0 - 1e-12) * norm(n)) return true;
-    return false;
-  };
   std::vector<int32_t> sameNeighbours;
   int onBoundary = 0;
   for (int f = 0; f < 4; ++f) {
@@ -360,7 +363,7 @@ bool Improver::peelBoundaryTet(int32_t t) {
         const int32_t o = oppositeTet(u, g);
         if (o >= 0 && o != t) continue;
         const int* fv = kTetFaceVertices[g];
-        if (axisAligned(w[size_t(fv[0])], w[size_t(fv[1])], w[size_t(fv[2])])) return false;
+        if (onAxisPlane(w[size_t(fv[0])], w[size_t(fv[1])], w[size_t(fv[2])])) return false;
         std::array<int32_t, 2> e{};
         int k = 0;
         for (int j = 0; j < 3; ++j)
@@ -412,12 +415,7 @@ bool Improver::peelBoundaryTet(int32_t t) {
     for (int32_t n : sameNeighbours)
       if (!seen[size_t(std::lower_bound(region.begin(), region.end(), n) - region.begin())]) return false;
   }
-  const size_t l = labelIndex(mat);
-  const double vol = signedTetVolume(m_.points[size_t(q[0])], m_.points[size_t(q[1])], m_.points[size_t(q[2])],
-                                     m_.points[size_t(q[3])]);
-  if (std::abs(change_[l] - vol) > budget_[l]) return false;
-  change_[l] -= vol;
-  killTet(t);
+  if (!removeWithinBudget(t)) return false;
   ++st_.boundaryPeels;
   return true;
 }
