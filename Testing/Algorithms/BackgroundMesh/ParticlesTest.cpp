@@ -95,6 +95,31 @@ TEST(BarnesHut, MatchesDirectSumsWithinTheOpeningError) {
   EXPECT_LT(worst, 0.05); // monopole cells at theta 0.5
 }
 
+TEST(BarnesHut, AFarLeafCountsAsOneChargeAtItsCentreOfCharge) {
+  // Five charges in a 0.1-wide cluster (one leaf: at most kLeafSize charges) and a point 10 away:
+  // the leaf's edge / distance is about 0.01, so by the opening criterion the leaf is one charge
+  // at its centre of charge, exactly; theta 0 sums the five directly (and differs).
+  std::vector<Vec3> p{{0, 0, 0}, {0.1, 0, 0}, {0, 0.1, 0}, {0, 0, 0.1}, {0.1, 0.1, 0.1}};
+  std::vector<double> q{1.0, 2.0, 0.5, 1.5, 3.0};
+  const BarnesHutTree tree(p, q);
+  Vec3 centre{0, 0, 0};
+  double total = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    centre = centre + q[i] * p[i];
+    total += q[i];
+  }
+  centre = (1.0 / total) * centre;
+  const Vec3 x{10.0, 3.0, -2.0};
+  const Vec3 d = x - centre;
+  const double r = norm(d);
+  const auto far = tree.evaluate(x, -1, 0.5, 0.0);
+  EXPECT_NEAR(far.potential, total / r, 1e-14 * total / r);
+  EXPECT_NEAR(norm(far.field - (total / (r * r * r)) * d), 0.0, 1e-14 * total / (r * r));
+  const auto direct = tree.evaluate(x, -1, 0.0, 0.0);
+  EXPECT_GT(std::abs(direct.potential - far.potential), 1e-9 * far.potential);
+  EXPECT_NEAR(direct.potential, far.potential, 1e-4 * far.potential);
+}
+
 TEST(Particles, AnalyticFieldsTileTheBoxAndSpacingFollowsTheField) {
   // Constant, linear and radial fields on a 24 x 20 x 16 mm box of 1 mm voxels.
   GridGeometry g;
