@@ -7,8 +7,9 @@
 // cell keeps its total charge and its centre of charge. A cell, leaves included, is replaced by a
 // point charge at its centre of charge when its edge / distance < theta (the seed's opening
 // criterion); otherwise an inner cell's children are visited and a leaf's charges are summed
-// directly. theta = 0 sums everything directly. The charge at the query's own index is skipped, and pairs closer than `softening` are
-// counted at that distance (so coincident charges give a finite push, not a division by zero).
+// directly. theta = 0 sums everything directly. The charge at the query's own index is skipped,
+// and pairs closer than `softening` are counted at that distance (so coincident charges give a
+// finite push, not a division by zero).
 #include <array>
 #include <cstdint>
 #include <vector>
