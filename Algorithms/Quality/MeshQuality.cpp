@@ -100,18 +100,25 @@ void sortByLeadingVertex(std::vector<Key>& keys, size_t nP, int shift, Key none,
 }
 
 // ---------------------------------------------------------------------------------------------
-// Face analysis. A face key packs the sorted vertex indices a < b < c with B bits each and, in the
-// lowest bit, the parity of the permutation that sorts the face as seen from outside its tet, so
-// the two copies of an interior face of a consistently oriented mesh differ only in that bit.
-// All-ones marks "no face" (tets repeating a vertex) and sorts last.
+// Face analysis. Every face of a tet (tets repeating a vertex have none) is filed under its smallest
+// vertex a, by a counting sort over the tets (both threads, each a fixed block of tets), as the
+// 8-byte key (b << 32) | (c << 1) | parity, where a < b < c are its sorted vertices and the parity
+// is that of the permutation sorting the face as seen from outside its tet: the two copies of an
+// interior face of a consistently oriented mesh differ only in that bit. Each vertex's keys, a few
+// dozen, are then sorted on their own. Memory: 8 bytes per face, written once (no key array and
+// sorted copy of 16-byte keys, whose fresh pages cost the kernel as much as the sort).
 // ---------------------------------------------------------------------------------------------
 
 // Outward-oriented faces of a positively oriented tet (a,b,c,d): (a,c,b) (a,b,d) (a,d,c) (b,c,d).
 constexpr int kOutwardFaces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
 
-template <class Key, int B>
-Key faceKey(int32_t x, int32_t y, int32_t z) {
-  // Sort three values, counting swaps for the parity.
+// The sorted vertices of face f of q and the parity of the sorting permutation.
+struct SortedFace {
+  int32_t a, b, c;
+  unsigned parity;
+};
+SortedFace sortedFace(const TetMesh::Tet& q, int f) {
+  int32_t x = q[kOutwardFaces[f][0]], y = q[kOutwardFaces[f][1]], z = q[kOutwardFaces[f][2]];
   unsigned parity = 0;
   auto order = [&parity](int32_t& lo, int32_t& hi) {
     if (lo > hi) {
@@ -122,77 +129,105 @@ Key faceKey(int32_t x, int32_t y, int32_t z) {
   order(x, y);
   order(y, z);
   order(x, y);
-  Key k = static_cast<Key>(x);
-  k = (k << B) | static_cast<Key>(y);
-  k = (k << B) | static_cast<Key>(z);
-  return (k << 1) | static_cast<Key>(parity);
+  return {x, y, z, parity};
 }
 
-template <class Key, int B>
-std::array<int64_t, 3> faceVertices(Key k) {
-  const Key mask = (Key(1) << B) - 1;
-  k >>= 1;
-  const int64_t c = static_cast<int64_t>(k & mask);
-  k >>= B;
-  const int64_t b = static_cast<int64_t>(k & mask);
-  k >>= B;
-  return {static_cast<int64_t>(k & mask), b, c};
-}
-
-template <class Key, int B>
 void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
   const int64_t n = static_cast<int64_t>(mesh.numTets());
-  const Key none = ~Key(0);
-  std::vector<Key> keys(static_cast<size_t>(4 * n));
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < n; ++t) {
-    const auto& q = mesh.tets[static_cast<size_t>(t)];
-    const bool skip = repeatsVertex(q);
-    for (int f = 0; f < 4; ++f)
-      keys[static_cast<size_t>(4 * t + f)] =
-          skip ? none
-               : faceKey<Key, B>(q[kOutwardFaces[f][0]], q[kOutwardFaces[f][1]],
-                                 q[kOutwardFaces[f][2]]);
+  const size_t nP = mesh.numPoints();
+  const int64_t parts = std::max(1, omp_get_max_threads());
+  auto block = [&](int64_t c) { return std::pair{n * c / parts, n * (c + 1) / parts}; };
+  std::vector<std::vector<int64_t>> at(static_cast<size_t>(parts));
+  {
+    LoopCancel cancel(progress);
+#pragma omp parallel for schedule(static, 1)
+    for (int64_t c = 0; c < parts; ++c) {
+      auto& cnt = at[size_t(c)];
+      cnt.assign(nP, 0);
+      const auto [lo, hi] = block(c);
+      for (int64_t t = lo; t < hi; ++t) {
+        if (cancel.skip(t)) break;
+        const auto& q = mesh.tets[size_t(t)];
+        if (repeatsVertex(q)) continue;
+        for (int f = 0; f < 4; ++f) ++cnt[size_t(sortedFace(q, f).a)];
+      }
+    }
+    cancel.rethrow();
   }
-  sortByLeadingVertex(keys, mesh.numPoints(), 2 * B + 1, none, progress); // checks for cancellation itself
+  std::vector<int64_t> start(nP + 1, 0);
+  {
+    int64_t pos = 0;
+    for (size_t v = 0; v < nP; ++v) {
+      start[v] = pos;
+      for (auto& cnt : at) {
+        const int64_t k = cnt[v];
+        cnt[v] = pos; // where this block writes the vertex's faces
+        pos += k;
+      }
+    }
+    start[nP] = pos;
+  }
+  const auto keys = std::make_unique_for_overwrite<uint64_t[]>(size_t(start[nP]));
+  {
+    LoopCancel cancel(progress);
+#pragma omp parallel for schedule(static, 1)
+    for (int64_t c = 0; c < parts; ++c) {
+      auto& pos = at[size_t(c)];
+      const auto [lo, hi] = block(c);
+      for (int64_t t = lo; t < hi; ++t) {
+        if (cancel.skip(t)) break;
+        const auto& q = mesh.tets[size_t(t)];
+        if (repeatsVertex(q)) continue;
+        for (int f = 0; f < 4; ++f) {
+          const SortedFace sf = sortedFace(q, f);
+          keys[size_t(pos[size_t(sf.a)]++)] =
+              (uint64_t(uint32_t(sf.b)) << 32) | (uint64_t(uint32_t(sf.c)) << 1) | uint64_t(sf.parity);
+        }
+      }
+    }
+    cancel.rethrow();
+  }
+  std::vector<std::vector<int64_t>>().swap(at);
+  {
+    LoopCancel cancel(progress);
+#pragma omp parallel for schedule(dynamic, 4096)
+    for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v) {
+      if (cancel.skip(v)) continue;
+      std::sort(keys.get() + start[size_t(v)], keys.get() + start[size_t(v) + 1]);
+    }
+    cancel.rethrow();
+  }
   progress.report(0.5);
 
-  // Scan groups of equal faces (keys equal up to the parity bit).
+  // Scan groups of equal faces (keys equal up to the parity bit), vertex by vertex.
   std::vector<uint64_t> edges; // boundary-face edges, (lo << 32) | hi
-  size_t i = 0;
-  const size_t m = keys.size();
-  size_t nextCheck = size_t(1) << 20;
-  while (i < m && keys[i] != none) {
-    if (i >= nextCheck) {
-      progress.checkCancel();
-      nextCheck = i + (size_t(1) << 20);
+  auto edge = [](uint64_t x, uint64_t y) { return (std::min(x, y) << 32) | std::max(x, y); };
+  for (size_t v = 0; v < nP; ++v) {
+    if ((v & 0xFFFF) == 0) progress.checkCancel();
+    for (int64_t i = start[v], end = start[v + 1]; i < end;) {
+      const uint64_t face = keys[size_t(i)] >> 1;
+      int64_t j = i;
+      int parity1 = 0;
+      while (j < end && (keys[size_t(j)] >> 1) == face) {
+        parity1 += static_cast<int>(keys[size_t(j)] & 1u);
+        ++j;
+      }
+      const int64_t count = j - i;
+      if (count == 1) {
+        ++r.boundaryFaces;
+        const uint64_t a = v, b = face >> 31, c = face & 0x7FFFFFFFu;
+        edges.push_back(edge(a, b));
+        edges.push_back(edge(b, c));
+        edges.push_back(edge(a, c));
+      } else if (count == 2) {
+        ++r.interiorFaces;
+        if (parity1 != 1) ++r.foldedFaces;
+      } else {
+        ++r.nonmanifoldFaces;
+      }
+      i = j;
     }
-    const Key face = keys[i] >> 1;
-    size_t j = i;
-    int parity1 = 0;
-    while (j < m && keys[j] != none && (keys[j] >> 1) == face) {
-      parity1 += static_cast<int>(keys[j] & 1u);
-      ++j;
-    }
-    const size_t count = j - i;
-    if (count == 1) {
-      ++r.boundaryFaces;
-      const auto v = faceVertices<Key, B>(keys[i]);
-      auto edge = [](int64_t a, int64_t b) {
-        return (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b));
-      };
-      edges.push_back(edge(v[0], v[1]));
-      edges.push_back(edge(v[1], v[2]));
-      edges.push_back(edge(v[0], v[2]));
-    } else if (count == 2) {
-      ++r.interiorFaces;
-      if (parity1 != 1) ++r.foldedFaces;
-    } else {
-      ++r.nonmanifoldFaces;
-    }
-    i = j;
   }
-  std::vector<Key>().swap(keys); // release before the edge sort
   progress.checkCancel();
 
   cancellableSort(edges, progress);
@@ -324,10 +359,7 @@ QualityResult evaluateQuality(const TetMesh& mesh, const QualityParams& params, 
   progress.beginStage("topology");
   countDuplicates(mesh, r, progress);
   progress.checkCancel();
-  if (mesh.numPoints() <= (size_t(1) << 21))
-    analyzeFaces<uint64_t, 21>(mesh, r, progress);
-  else
-    analyzeFaces<U128, 31>(mesh, r, progress);
+  analyzeFaces(mesh, r, progress);
   {
     progress.checkCancel();
     std::vector<uint8_t> used(mesh.numPoints(), 0);
