@@ -35,6 +35,61 @@ double median(std::vector<double>& v) {
   return 0.5 * (lo + hi);
 }
 
+// The first half of a counting sort over [0, n) in `parts` fixed blocks (one per thread): each item
+// i names its buckets (bucketsOf(i, add) calls add(bucket) once per entry it files); the counts per
+// block become, in `at`, where each block writes a bucket's entries. Returns each bucket's start
+// (buckets + 1 values, the last the total). Cancellable.
+template <class BucketsOf>
+std::vector<int64_t> countingStarts(int64_t n, size_t buckets, int64_t parts, const BucketsOf& bucketsOf,
+                                    std::vector<std::vector<int64_t>>& at, const Progress& progress) {
+  auto block = [&](int64_t c) { return std::pair{n * c / parts, n * (c + 1) / parts}; };
+  at.assign(static_cast<size_t>(parts), {});
+  {
+    LoopCancel cancel(progress);
+#pragma omp parallel for schedule(static, 1)
+    for (int64_t c = 0; c < parts; ++c) {
+      auto& cnt = at[size_t(c)];
+      cnt.assign(buckets, 0);
+      const auto [lo, hi] = block(c);
+      for (int64_t i = lo; i < hi; ++i) {
+        if (cancel.skip(i)) break;
+        bucketsOf(i, [&cnt](size_t b) { ++cnt[b]; });
+      }
+    }
+    cancel.rethrow();
+  }
+  std::vector<int64_t> start(buckets + 1, 0);
+  int64_t pos = 0;
+  for (size_t v = 0; v < buckets; ++v) {
+    start[v] = pos;
+    for (auto& cnt : at) {
+      const int64_t k = cnt[v];
+      cnt[v] = pos; // where this block writes the bucket's entries
+      pos += k;
+    }
+  }
+  start[buckets] = pos;
+  return start;
+}
+
+// The second half: each block's items again, in order; emit(i, slot) files item i's entries, slot(b)
+// giving the next position of bucket b for this block.
+template <class Emit>
+void countingScatter(int64_t n, int64_t parts, std::vector<std::vector<int64_t>>& at, const Emit& emit,
+                     const Progress& progress) {
+  LoopCancel cancel(progress);
+#pragma omp parallel for schedule(static, 1)
+  for (int64_t c = 0; c < parts; ++c) {
+    auto& pos = at[size_t(c)];
+    const int64_t lo = n * c / parts, hi = n * (c + 1) / parts;
+    for (int64_t i = lo; i < hi; ++i) {
+      if (cancel.skip(i)) break;
+      emit(i, [&pos](size_t b) { return size_t(pos[b]++); });
+    }
+  }
+  cancel.rethrow();
+}
+
 // Sorts keys whose top bits (key >> shift) are a vertex index below nP, `none` last: a counting
 // sort on the vertex (linear, both threads, each thread a fixed block of the input) and then each
 // vertex's keys, a few dozen, sorted on their own. The same order as sorting the keys whole (the
@@ -45,49 +100,13 @@ void sortByLeadingVertex(std::vector<Key>& keys, size_t nP, int shift, Key none,
   auto vertexOf = [&](const Key& k) { return k == none ? nP : static_cast<size_t>(k >> shift); };
   // One fixed block of the input per thread (memory: a count per vertex per thread).
   const int64_t parts = std::max(1, omp_get_max_threads());
-  auto block = [&](int64_t c) { return std::pair{n * c / parts, n * (c + 1) / parts}; };
-  std::vector<std::vector<int64_t>> count(static_cast<size_t>(parts));
-  {
-    LoopCancel cancel(progress);
-#pragma omp parallel for schedule(static, 1)
-    for (int64_t c = 0; c < parts; ++c) {
-      auto& cnt = count[size_t(c)];
-      cnt.assign(nP + 1, 0);
-      const auto [lo, hi] = block(c);
-      for (int64_t i = lo; i < hi; ++i) {
-        if (cancel.skip(i)) break;
-        ++cnt[vertexOf(keys[size_t(i)])];
-      }
-    }
-    cancel.rethrow();
-  }
-  std::vector<int64_t> start(nP + 2, 0);
-  {
-    int64_t pos = 0;
-    for (size_t v = 0; v <= nP; ++v) {
-      start[v] = pos;
-      for (auto& cnt : count) {
-        const int64_t k = cnt[v];
-        cnt[v] = pos; // where this block writes the vertex's keys
-        pos += k;
-      }
-    }
-    start[nP + 1] = pos;
-  }
+  std::vector<std::vector<int64_t>> count;
+  const std::vector<int64_t> start = countingStarts(
+      n, nP + 1, parts, [&](int64_t i, const auto& add) { add(vertexOf(keys[size_t(i)])); }, count, progress);
   const auto sorted = std::make_unique_for_overwrite<Key[]>(size_t(n));
-  {
-    LoopCancel cancel(progress);
-#pragma omp parallel for schedule(static, 1)
-    for (int64_t c = 0; c < parts; ++c) {
-      auto& at = count[size_t(c)];
-      const auto [lo, hi] = block(c);
-      for (int64_t i = lo; i < hi; ++i) {
-        if (cancel.skip(i)) break;
-        sorted[size_t(at[vertexOf(keys[size_t(i)])]++)] = keys[size_t(i)];
-      }
-    }
-    cancel.rethrow();
-  }
+  countingScatter(
+      n, parts, count,
+      [&](int64_t i, const auto& slot) { sorted[slot(vertexOf(keys[size_t(i)]))] = keys[size_t(i)]; }, progress);
   std::vector<std::vector<int64_t>>().swap(count);
   LoopCancel cancel(progress);
 #pragma omp parallel for schedule(dynamic, 4096)
@@ -136,57 +155,28 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
   const int64_t n = static_cast<int64_t>(mesh.numTets());
   const size_t nP = mesh.numPoints();
   const int64_t parts = std::max(1, omp_get_max_threads());
-  auto block = [&](int64_t c) { return std::pair{n * c / parts, n * (c + 1) / parts}; };
-  std::vector<std::vector<int64_t>> at(static_cast<size_t>(parts));
-  {
-    LoopCancel cancel(progress);
-#pragma omp parallel for schedule(static, 1)
-    for (int64_t c = 0; c < parts; ++c) {
-      auto& cnt = at[size_t(c)];
-      cnt.assign(nP, 0);
-      const auto [lo, hi] = block(c);
-      for (int64_t t = lo; t < hi; ++t) {
-        if (cancel.skip(t)) break;
+  std::vector<std::vector<int64_t>> at;
+  const std::vector<int64_t> start = countingStarts(
+      n, nP, parts,
+      [&](int64_t t, const auto& add) {
         const auto& q = mesh.tets[size_t(t)];
-        if (repeatsVertex(q)) continue;
-        for (int f = 0; f < 4; ++f) ++cnt[size_t(sortedFace(q, f).a)];
-      }
-    }
-    cancel.rethrow();
-  }
-  std::vector<int64_t> start(nP + 1, 0);
-  {
-    int64_t pos = 0;
-    for (size_t v = 0; v < nP; ++v) {
-      start[v] = pos;
-      for (auto& cnt : at) {
-        const int64_t k = cnt[v];
-        cnt[v] = pos; // where this block writes the vertex's faces
-        pos += k;
-      }
-    }
-    start[nP] = pos;
-  }
+        if (!repeatsVertex(q))
+          for (int f = 0; f < 4; ++f) add(size_t(sortedFace(q, f).a));
+      },
+      at, progress);
   const auto keys = std::make_unique_for_overwrite<uint64_t[]>(size_t(start[nP]));
-  {
-    LoopCancel cancel(progress);
-#pragma omp parallel for schedule(static, 1)
-    for (int64_t c = 0; c < parts; ++c) {
-      auto& pos = at[size_t(c)];
-      const auto [lo, hi] = block(c);
-      for (int64_t t = lo; t < hi; ++t) {
-        if (cancel.skip(t)) break;
+  countingScatter(
+      n, parts, at,
+      [&](int64_t t, const auto& slot) {
         const auto& q = mesh.tets[size_t(t)];
-        if (repeatsVertex(q)) continue;
+        if (repeatsVertex(q)) return;
         for (int f = 0; f < 4; ++f) {
           const SortedFace sf = sortedFace(q, f);
-          keys[size_t(pos[size_t(sf.a)]++)] =
+          keys[slot(size_t(sf.a))] =
               (uint64_t(uint32_t(sf.b)) << 32) | (uint64_t(uint32_t(sf.c)) << 1) | uint64_t(sf.parity);
         }
-      }
-    }
-    cancel.rethrow();
-  }
+      },
+      progress);
   std::vector<std::vector<int64_t>>().swap(at);
   {
     LoopCancel cancel(progress);
