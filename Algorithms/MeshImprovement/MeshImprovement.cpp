@@ -396,9 +396,6 @@ ImproveStats Improver::run() {
           for (int32_t u : touched)
             if (alive_[size_t(u)] && score(m_.tets[size_t(u)]) < goal_) next.push_back(u);
         }
-        // Tets the passes left below the goal but above the target stay candidates for the next round.
-        for (int32_t t : bad)
-          if (alive_[size_t(t)] && score(m_.tets[size_t(t)]) < goal_) next.push_back(t);
         std::sort(next.begin(), next.end());
         next.erase(std::unique(next.begin(), next.end()), next.end());
         bad.swap(next);
