@@ -25,6 +25,10 @@ namespace {
 // on cells coarser than the voxels, the bits of a thin structure that cleaving cut off are several
 // voxels each, and a mesh can only keep such a structure in one piece.
 constexpr double kFragmentShare = 0.01;
+// Connections: the longest chain of tets of other labels that may join two pieces, and the tets a
+// search for one may settle.
+constexpr int kMaxChain = 6;
+constexpr size_t kMaxSettled = 4096;
 
 struct Allowed {
   std::unordered_set<uint64_t> pairs;
@@ -332,7 +336,17 @@ void repairPointContacts(Steps& s) {
   }
 }
 
-void repairConnections(Steps& s) {
+// The volume [mm^3] below which a piece that is not primary for image component c may go (the
+// fragments step): fragment_voxels voxels, or kFragmentShare of the component.
+double fragmentLimit(const LabelImageTopology& img, int32_t c, double fragmentVoxels, double voxel) {
+  return std::max(fragmentVoxels * voxel, kFragmentShare * double(img.comps[size_t(c)].voxels) * voxel);
+}
+
+// `lastingOnly`: only the pieces the fragments step would keep (at least their component's
+// fragment limit, of a component with a core): the pass after the edges step, which may cut a
+// thin piece off again where it closes a non-manifold edge; what it cuts off below the limit the
+// fragments step removes, as before.
+void repairConnections(Steps& s, bool lastingOnly = false) {
   // Named references (clang 14 cannot capture structured bindings in lambdas).
   auto& mesh = s.mesh;
   auto& progress = s.progress;
@@ -345,25 +359,110 @@ void repairConnections(Steps& s) {
   auto& frame = s.frame;
   progress.beginStage("repair connections");
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
+  // Where no one- or two-tet path joins a piece, the chain of up to kMaxChain tets of other labels
+  // with the least volume (Dijkstra from the piece's faces, over at most kMaxSettled tets) that
+  // may all take label L: each one's faces off the chain allowed next to L, and no face on a tet
+  // of L outside the piece and its targets (that would merge a piece of another component). A
+  // voxel component joined only through voxel edges or corners (26-connected, as the
+  // certificate counts) has no face-connected tets voting for it between its parts; the chain
+  // takes the fewest other tets' volume instead. Empty when there is none.
+  auto chain = [&](const std::vector<int64_t>& piece, int32_t L, int32_t me, auto&& target,
+                   DisjointSets& sets) -> std::vector<int32_t> {
+    auto fits = [&](int32_t a, int32_t pred, int32_t succ) {
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[size_t(4 * a + f)];
+        if (o < 0 || o == pred || o == succ) continue;
+        const int32_t M = mesh.materials[size_t(o)];
+        if (M == L ? sets.find(o) != me && !target(o) : !allowed.ok(L, M)) return false;
+      }
+      return true;
+    };
+    struct Reached {
+      double dist;
+      int32_t pred;
+      int depth;
+    };
+    std::unordered_map<int32_t, Reached> reached;
+    using Item = std::pair<double, int32_t>; // (volume so far, tet): least volume first, then index
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+    for (int64_t t : piece)
+      for (int f = 0; f < 4; ++f) {
+        const int32_t a = nb[size_t(4 * t + f)];
+        if (a < 0 || mesh.materials[size_t(a)] == L) continue;
+        const double v = std::abs(mesh.tetVolume(size_t(a)));
+        const auto it = reached.find(a);
+        if (it != reached.end() && it->second.dist <= v) continue;
+        reached[a] = {v, -1, 1};
+        queue.push({v, a});
+      }
+    std::unordered_set<int32_t> settled;
+    while (!queue.empty() && settled.size() < kMaxSettled) {
+      const auto [d, a] = queue.top();
+      queue.pop();
+      if (!settled.insert(a).second) continue;
+      const Reached here = reached.at(a);
+      for (int f = 0; f < 4; ++f) {
+        const int32_t b = nb[size_t(4 * a + f)];
+        if (b < 0 || !target(b) || !fits(a, here.pred, b)) continue;
+        std::vector<int32_t> path;
+        for (int32_t q = a; q >= 0; q = reached.at(q).pred) path.push_back(q);
+        return path;
+      }
+      if (here.depth == kMaxChain) continue;
+      for (int f = 0; f < 4; ++f) {
+        const int32_t b = nb[size_t(4 * a + f)];
+        if (b < 0 || mesh.materials[size_t(b)] == L || settled.count(b)) continue;
+        const double nd = d + std::abs(mesh.tetVolume(size_t(b)));
+        const auto it = reached.find(b);
+        if ((it != reached.end() && it->second.dist <= nd) || !fits(a, here.pred, b)) continue;
+        reached[b] = {nd, a, here.depth + 1};
+        queue.push({nd, b});
+      }
+    }
+    return {};
+  };
+  // Rounds of one- and two-tet paths until nothing joins (at most 8). Then the pieces left that the
+  // fragments step would keep (at least their component's fragment limit, of a component with a
+  // core: the ones the certificate would count as a split) may lay chains, in the same round and
+  // in up to 8 more.
+  bool chains = false;
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
     DisjointSets sets = sameLabelPieces(mesh, nb, s.joins);
     progress.checkCancel();
     // The primary piece of every image component, then the other pieces that vote for one, with
-    // their tets and the components they vote for.
+    // their tets, the components they vote for, their volume and their voting volume by component.
     const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
     progress.checkCancel();
     std::map<int32_t, std::vector<int64_t>> tetsOf;
     std::map<int32_t, std::set<int32_t>> compsOf;
+    std::map<int32_t, double> volumeOf;
+    std::map<int32_t, std::map<int32_t, double>> votesOf;
     for (int64_t t = 0; t < n; ++t) {
       progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
-      if (primary[size_t(r)] || vote[size_t(t)] < 0) continue;
+      if (primary[size_t(r)]) continue;
+      const double v = std::abs(mesh.tetVolume(size_t(t)));
+      volumeOf[r] += v;
+      if (vote[size_t(t)] < 0) continue;
       compsOf[r].insert(vote[size_t(t)]);
       tetsOf[r].push_back(t);
+      votesOf[r][vote[size_t(t)]] += v;
     }
-    int64_t joined = 0;
-    for (const auto& [root, tets] : tetsOf) {
+    auto lasting = [&](int32_t root) {
+      int32_t c = -1;
+      double most = -1.0;
+      for (const auto& [comp, v] : votesOf[root])
+        if (v > most) {
+          most = v;
+          c = comp;
+        }
+      return img.comps[size_t(c)].cores > 0 &&
+             volumeOf[root] >= fragmentLimit(img, c, s.params.fragment_voxels, labels.grid.voxelVolume());
+    };
+    // Joins the piece to another piece of its component, if a path is found: one or two tets, or
+    // (withChain) a chain.
+    auto tryJoin = [&](int32_t root, const std::vector<int64_t>& tets, bool withChain) {
       const int32_t L = mesh.materials[size_t(tets.front())];
       const int32_t me = sets.find(root);
       const std::set<int32_t>& comps = compsOf[root];
@@ -401,7 +500,9 @@ void repairConnections(Steps& s) {
         }
         if (!path.empty()) break;
       }
-      if (path.empty()) continue;
+      if (path.empty() && withChain) path = chain(tets, L, me, target, sets);
+      if (path.empty()) return false;
+      if (path.size() > 2) ++st.chainConnections;
       for (int32_t q : path) {
         st.relabelledVolume += std::abs(mesh.tetVolume(size_t(q)));
         mesh.materials[size_t(q)] = L;
@@ -412,7 +513,18 @@ void repairConnections(Steps& s) {
           if (o >= 0 && mesh.materials[size_t(o)] == L) sets.unite(q, o);
         }
       }
-      ++joined;
+      return true;
+    };
+    int64_t joined = 0;
+    std::vector<int32_t> failed; // lasting pieces no short path joined
+    for (const auto& [root, tets] : tetsOf) {
+      if (lastingOnly && !lasting(root)) continue;
+      if (tryJoin(root, tets, false)) ++joined;
+      else if (lasting(root)) failed.push_back(root);
+    }
+    if (joined == 0 || chains) {
+      chains = true;
+      for (int32_t root : failed) joined += tryJoin(root, tetsOf[root], true) ? 1 : 0;
     }
     st.connections += joined;
     if (joined == 0) break;
@@ -624,9 +736,7 @@ void repairFragments(Steps& s) {
     }
     // A component without a core may be lost (the certificate's lost_small) but not split: any
     // piece that is not its primary one may go, whatever its size.
-    auto compLimit = [&](int32_t c) {
-      return std::max(limit, kFragmentShare * double(img.comps[size_t(c)].voxels) * voxel);
-    };
+    auto compLimit = [&](int32_t c) { return fragmentLimit(img, c, params.fragment_voxels, voxel); };
     auto limitOf = [&](int32_t r, int32_t label) {
       const auto it = mainComp.find(r);
       if (it == mainComp.end()) return std::max(limit, kFragmentShare * labelVolume[label]);
@@ -833,7 +943,11 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (params.points) repairPointContacts(s);
   if (params.connect) repairConnections(s);
-  if (params.edges) repairEdges(s);
+  if (params.edges) {
+    const int64_t before = st.edgeTets;
+    repairEdges(s);
+    if (params.connect && st.edgeTets > before) repairConnections(s, true);
+  }
   if (params.fragments) repairFragments(s);
 
   countForbidden(mesh, nb, allowed, st.forbiddenFacesAfter, st.forbiddenAreaAfter);
@@ -859,6 +973,7 @@ void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
   report.set("repair_edge_tets", s.edgeTets);
   report.set("repair_connections", s.connections);
   report.set("repair_connect_tets", s.connectTets);
+  report.set("repair_chain_connections", s.chainConnections);
   report.set("repair_relabelled_volume_mm3", s.relabelledVolume);
   report.set("repair_local", ReportValue(s.local));
   report.set("repair_local_rounds", int64_t(s.localRounds));

@@ -23,7 +23,14 @@
 //    another piece voting for the same component when one or two tets of other labels lie between
 //    them (through faces) and its label is allowed next to all their neighbours: those tets take
 //    its label. Rounds repeat until nothing joins (at most 8). A thin layer that cleaving broke
-//    into patches (or that step 1 patched) becomes one piece again.
+//    into patches (or that step 1 patched) becomes one piece again. Then the pieces left that
+//    step 4 would keep (at least its size limit, of a component with a core: each would be a
+//    split in the certificate) may be joined by a chain of up to 6 tets of other labels, the one of
+//    least volume, each allowed next to its neighbours and touching no other piece of the label
+//    (up to 8 more rounds): a component the image joins only through voxel edges or corners has
+//    no face-connected path of its own between its parts. After step 3 (whose closing of a
+//    non-manifold edge can cut such a link again) the pieces step 4 would keep get the same chance
+//    once more.
 // 3. Edges. Around an edge where the tets of one label form two or more groups (joined through
 //    the faces at the edge), the label touches itself along the edge: a non-manifold interface
 //    edge. The smallest gap of other tets between two such groups whose tets may all take the
@@ -83,6 +90,7 @@ struct LabelRepairStats {
   int64_t pointTets = 0;
   int64_t connections = 0;        // pieces joined to another piece of their image component
   int64_t connectTets = 0;
+  int64_t chainConnections = 0;   // of them, joined through a chain of 3 to 6 tets
   int64_t closedEdges = 0;        // non-manifold interface edges closed
   int64_t edgeTets = 0;
   double relabelledVolume = 0.0;  // mm^3, all steps together

@@ -285,6 +285,58 @@ TEST(LabelRepair, ACorelessComponentIsNotLeftInPieces) {
   }
 }
 
+// A piece of a component with a core that no one- or two-tet path reaches (found on a 99-label
+// atlas at 1.5 mm: parcels joined in the image only through voxel edges) is joined by a chain of up
+// to six tets of other labels, the least volume first: here a bar cut through by two voxels'
+// worth of another label, where the image has the bar whole. The chain lies in the cut, the
+// certificate finds one piece, and a bar whose cut is wider than a chain reaches stays in two.
+TEST(LabelRepair, APieceNoShortPathReachesIsJoinedByAChain) {
+  for (const int64_t cut : {2, 4}) {
+    LabelVolume v;
+    GridGeometry g;
+    g.dims = {14, 7, 7};
+    v.allocate(g, 1);
+    for (int64_t i = 2; i < 12; ++i)
+      for (int64_t j = 0; j < 3; ++j)
+        for (int64_t k = 4; k < 7; ++k) v.at(i, j, k) = 4;
+    TetMesh m = test::voxelMesh(v);
+    for (int64_t i = 5; i < 5 + cut; ++i)
+      for (int64_t j = 0; j < 3; ++j)
+        for (int64_t k = 4; k < 7; ++k) test::relabelVoxel(v, m, i, j, k, 1);
+    const TetMesh before = m;
+    const auto vol = std::make_shared<const LabelVolume>(v);
+    const LabelMaterials mats(vol, 0.5);
+    NullProgress np;
+    const LabelRepairStats st = repairLabels(m, mats, LabelRepairParams{}, np);
+    EXPECT_EQ(m.points, before.points);
+    EXPECT_EQ(m.tets, before.tets);
+    const CertificateResult c = certifyMesh(m, *vol, np);
+    for (const auto& lc : c.labels)
+      if (lc.label == 4) {
+        EXPECT_EQ(lc.meshComponents, cut == 2 ? 1 : 2) << "cut " << cut;
+        EXPECT_EQ(lc.split, cut == 2 ? 0 : 1) << "cut " << cut;
+      }
+    if (cut == 2) {
+      EXPECT_GE(st.chainConnections, 1);
+      // The chain, and what the edges step and the pass after it change around it: a few of the
+      // cut's 108 tets, all in the cut, all taking the bar's label.
+      size_t changed = 0;
+      for (size_t t = 0; t < m.numTets(); ++t)
+        if (m.materials[t] != before.materials[t]) {
+          ++changed;
+          const Vec3 x = tetCentroid(m, t);
+          EXPECT_EQ(m.materials[t], 4);
+          // (voxel i spans [i - 0.5, i + 0.5])
+          EXPECT_TRUE(x[0] > 4.5 && x[0] < 4.5 + double(cut)) << "tet " << t << " at x " << x[0];
+        }
+      EXPECT_GE(changed, 3u);
+      EXPECT_LE(changed, 16u);
+    } else {
+      EXPECT_EQ(st.chainConnections, 0);
+    }
+  }
+}
+
 TEST(LabelRepair, AForbiddenFaceIsRelabelledToTheLayerBetween) {
   // Slabs 1 | 3 | 2 along x (3 one voxel thick): 1 and 2 never touch.
   LabelVolume v;
