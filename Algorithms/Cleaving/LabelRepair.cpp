@@ -194,6 +194,60 @@ std::vector<int64_t> forbiddenTets(const TetMesh& mesh, const std::vector<int32_
   return out;
 }
 
+// The chain of up to kMaxChain tets, none of label L and none in the piece, from a face of the
+// piece's tets to a tet for which target() holds, with the least volume: Dijkstra over at most
+// kMaxSettled tets (ties to the smaller tet index), each step allowed by fits(tet, the chain's tet
+// before it or -1, the one after it). Empty when there is none.
+template <class InPiece, class Target, class Fits>
+std::vector<int32_t> leastVolumeChain(const TetMesh& mesh, const std::vector<int32_t>& nb,
+                                      const std::vector<int64_t>& piece, int32_t L, InPiece&& inPiece,
+                                      Target&& target, Fits&& fits) {
+  struct Reached {
+    double dist;
+    int32_t pred;
+    int depth;
+  };
+  auto open = [&](int32_t b) { return b >= 0 && mesh.materials[size_t(b)] != L && !inPiece(b); };
+  std::unordered_map<int32_t, Reached> reached;
+  using Item = std::pair<double, int32_t>; // (volume so far, tet): least volume first, then index
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  for (int64_t t : piece)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t a = nb[size_t(4 * t + f)];
+      if (!open(a)) continue;
+      const double v = std::abs(mesh.tetVolume(size_t(a)));
+      const auto it = reached.find(a);
+      if (it != reached.end() && it->second.dist <= v) continue;
+      reached[a] = {v, -1, 1};
+      queue.push({v, a});
+    }
+  std::unordered_set<int32_t> settled;
+  while (!queue.empty() && settled.size() < kMaxSettled) {
+    const auto [d, a] = queue.top();
+    queue.pop();
+    if (!settled.insert(a).second) continue;
+    const Reached here = reached.at(a);
+    for (int f = 0; f < 4; ++f) {
+      const int32_t b = nb[size_t(4 * a + f)];
+      if (b < 0 || !target(b) || !fits(a, here.pred, b)) continue;
+      std::vector<int32_t> path;
+      for (int32_t q = a; q >= 0; q = reached.at(q).pred) path.push_back(q);
+      return path;
+    }
+    if (here.depth == kMaxChain) continue;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t b = nb[size_t(4 * a + f)];
+      if (!open(b) || settled.count(b)) continue;
+      const double nd = d + std::abs(mesh.tetVolume(size_t(b)));
+      const auto it = reached.find(b);
+      if ((it != reached.end() && it->second.dist <= nd) || !fits(a, here.pred, b)) continue;
+      reached[b] = {nd, a, here.depth + 1};
+      queue.push({nd, b});
+    }
+  }
+  return {};
+}
+
 // What every step works on.
 struct Steps {
   TetMesh& mesh;
@@ -359,13 +413,12 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
   auto& frame = s.frame;
   progress.beginStage("repair connections");
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
-  // Where no one- or two-tet path joins a piece, the chain of up to kMaxChain tets of other labels
-  // with the least volume (Dijkstra from the piece's faces, over at most kMaxSettled tets) that
-  // may all take label L: each one's faces off the chain allowed next to L, and no face on a tet
-  // of L outside the piece and its targets (that would merge a piece of another component). A
-  // voxel component joined only through voxel edges or corners (26-connected, as the
-  // certificate counts) has no face-connected tets voting for it between its parts; the chain
-  // takes the fewest other tets' volume instead. Empty when there is none.
+  // Where no one- or two-tet path joins a piece: a chain (leastVolumeChain) whose tets may all take
+  // label L: each one's faces off the chain allowed next to L, and no face on a tet of L outside
+  // the piece and its targets (that would merge a piece of another component). A voxel component
+  // joined only through voxel edges or corners (26-connected, as the certificate counts) has no
+  // face-connected tets voting for it between its parts; the chain takes the fewest other tets'
+  // volume instead. Empty when there is none.
   auto chain = [&](const std::vector<int64_t>& piece, int32_t L, int32_t me, auto&& target,
                    DisjointSets& sets) -> std::vector<int32_t> {
     auto fits = [&](int32_t a, int32_t pred, int32_t succ) {
@@ -377,49 +430,7 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
       }
       return true;
     };
-    struct Reached {
-      double dist;
-      int32_t pred;
-      int depth;
-    };
-    std::unordered_map<int32_t, Reached> reached;
-    using Item = std::pair<double, int32_t>; // (volume so far, tet): least volume first, then index
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-    for (int64_t t : piece)
-      for (int f = 0; f < 4; ++f) {
-        const int32_t a = nb[size_t(4 * t + f)];
-        if (a < 0 || mesh.materials[size_t(a)] == L) continue;
-        const double v = std::abs(mesh.tetVolume(size_t(a)));
-        const auto it = reached.find(a);
-        if (it != reached.end() && it->second.dist <= v) continue;
-        reached[a] = {v, -1, 1};
-        queue.push({v, a});
-      }
-    std::unordered_set<int32_t> settled;
-    while (!queue.empty() && settled.size() < kMaxSettled) {
-      const auto [d, a] = queue.top();
-      queue.pop();
-      if (!settled.insert(a).second) continue;
-      const Reached here = reached.at(a);
-      for (int f = 0; f < 4; ++f) {
-        const int32_t b = nb[size_t(4 * a + f)];
-        if (b < 0 || !target(b) || !fits(a, here.pred, b)) continue;
-        std::vector<int32_t> path;
-        for (int32_t q = a; q >= 0; q = reached.at(q).pred) path.push_back(q);
-        return path;
-      }
-      if (here.depth == kMaxChain) continue;
-      for (int f = 0; f < 4; ++f) {
-        const int32_t b = nb[size_t(4 * a + f)];
-        if (b < 0 || mesh.materials[size_t(b)] == L || settled.count(b)) continue;
-        const double nd = d + std::abs(mesh.tetVolume(size_t(b)));
-        const auto it = reached.find(b);
-        if ((it != reached.end() && it->second.dist <= nd) || !fits(a, here.pred, b)) continue;
-        reached[b] = {nd, a, here.depth + 1};
-        queue.push({nd, b});
-      }
-    }
-    return {};
+    return leastVolumeChain(mesh, nb, piece, L, [](int32_t) { return false; }, target, fits);
   };
   // Rounds of one- and two-tet paths until nothing joins (at most 8). Then the pieces left that the
   // fragments step would keep (at least their component's fragment limit, of a component with a
@@ -790,24 +801,87 @@ void repairFragments(Steps& s) {
       if (const auto into = dissolveInto(b, allowed)) target[r] = *into;
       else if (r >= 0) ++kept;
     }
-    st.keptSmallPieces = kept;
-    if (target.empty()) break;
-    ++st.fragmentRounds;
-    for (const auto& [r, unused] : target) st.fragments += r >= 0 ? 1 : 0;
-    for (int64_t t : candidateTets) {
-      auto it = target.find(int32_t(-1 - t));
-      if (it == target.end()) it = target.find(sets.find(int32_t(t)));
-      if (it == target.end()) continue;
-      mesh.materials[size_t(t)] = it->second;
-      st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-      if (it->first < 0) {
-        ++st.strayTets;
-        strayDone[size_t(t)] = 1;
-      } else {
-        ++st.fragmentTets;
+    std::vector<std::pair<int32_t, int32_t>> keptRoots; // (root, label)
+    for (const auto& [r, b] : border)
+      if (r >= 0 && !target.count(r)) keptRoots.push_back({r, mesh.materials[size_t(r)]});
+    if (!target.empty()) {
+      ++st.fragmentRounds;
+      for (const auto& [r, unused] : target) st.fragments += r >= 0 ? 1 : 0;
+      for (int64_t t : candidateTets) {
+        auto it = target.find(int32_t(-1 - t));
+        if (it == target.end()) it = target.find(sets.find(int32_t(t)));
+        if (it == target.end()) continue;
+        mesh.materials[size_t(t)] = it->second;
+        st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+        if (it->first < 0) {
+          ++st.strayTets;
+          strayDone[size_t(t)] = 1;
+        } else {
+          ++st.fragmentTets;
+        }
+        vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
       }
-      vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
     }
+    // A piece that no neighbouring label may take (the labels around it may not touch each other:
+    // a speck of brain between a tongue of scalp and the CSF) takes the label the image favours
+    // over it (the largest indicator function, by volume) among those allowed next to all its
+    // neighbours, with a least-volume chain of tets (leastVolumeChain) to that label's nearest
+    // tet taking it too: alone it would be an island of that label, another split.
+    int64_t chained = 0;
+    for (const auto& [r, own] : keptRoots) {
+      std::vector<int64_t> piece;
+      for (int64_t t : candidateTets)
+        if (sets.find(int32_t(t)) == r) piece.push_back(t);
+      // (skipped when an earlier chain ran through it)
+      if (piece.empty() || std::any_of(piece.begin(), piece.end(), [&](int64_t t) { return mesh.materials[size_t(t)] != own; }))
+        continue;
+      std::map<int32_t, double> around, favour;
+      for (int64_t t : piece) {
+        addBorder(mesh, nb, t, around);
+        const double v = std::abs(mesh.tetVolume(size_t(t)));
+        for (const auto& [L, value] : valuesAt(s.materials, tetCentroid(mesh, size_t(t)))) favour[L] += v * double(value);
+      }
+      std::vector<std::pair<double, int32_t>> order; // (-favour, label)
+      for (const auto& [L, f] : favour) {
+        bool ok = L != own && !around.count(L);
+        for (const auto& [M, unused] : around) ok = ok && allowed.ok(L, M);
+        if (ok) order.push_back({-f, L});
+      }
+      std::sort(order.begin(), order.end());
+      for (const auto& [unused, L] : order) {
+        auto inPiece = [&](int32_t t) { return std::binary_search(piece.begin(), piece.end(), int64_t(t)); };
+        auto fits = [&](int32_t a, int32_t pred, int32_t succ) {
+          for (int f = 0; f < 4; ++f) {
+            const int32_t o = nb[size_t(4 * a + f)];
+            if (o < 0 || o == pred || o == succ || inPiece(o)) continue;
+            if (!allowed.ok(L, mesh.materials[size_t(o)])) return false;
+          }
+          return true;
+        };
+        const std::vector<int32_t> path = leastVolumeChain(
+            mesh, nb, piece, L, inPiece, [&](int32_t b) { return mesh.materials[size_t(b)] == L; }, fits);
+        if (path.empty()) continue;
+        for (int64_t t : piece) {
+          mesh.materials[size_t(t)] = L;
+          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+          ++st.fragmentTets;
+          vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), L);
+        }
+        for (int32_t t : path) {
+          mesh.materials[size_t(t)] = L;
+          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+          ++st.fragmentChainTets;
+          vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), L);
+        }
+        ++st.fragments;
+        ++st.fragmentChains;
+        ++chained;
+        --kept;
+        break;
+      }
+    }
+    st.keptSmallPieces = kept;
+    if (target.empty() && chained == 0) break;
   }
 }
 
@@ -974,6 +1048,8 @@ void writeLabelRepairReport(const LabelRepairStats& s, Report& report) {
   report.set("repair_connections", s.connections);
   report.set("repair_connect_tets", s.connectTets);
   report.set("repair_chain_connections", s.chainConnections);
+  report.set("repair_fragment_chains", s.fragmentChains);
+  report.set("repair_fragment_chain_tets", s.fragmentChainTets);
   report.set("repair_relabelled_volume_mm3", s.relabelledVolume);
   report.set("repair_local", ReportValue(s.local));
   report.set("repair_local_rounds", int64_t(s.localRounds));

@@ -43,7 +43,10 @@
 //    votes for most (of its label's voxels when it votes for none), or of any size when that
 //    component has no core (the certificate allows losing it, not splitting it), is relabelled to the
 //    neighbouring label it shares the most face area with, among those allowed next to all its
-//    neighbours (kept when there is none). So is a stray: a tet on the surface of a piece that
+//    neighbours; when there is none (the labels around it may not touch each other), the label
+//    the image favours over it (largest indicator function, by volume) among those allowed next
+//    to all of them, with a least-volume chain of up to 6 tets to that label taking it too (no
+//    island of it); kept when there is neither. So is a stray: a tet on the surface of a piece that
 //    stays, voting for an image component that piece is not primary of and reaches into with
 //    less than that component's size limit (once per tet). Rounds repeat until nothing changes
 //    (at most 8). On
@@ -91,6 +94,8 @@ struct LabelRepairStats {
   int64_t connections = 0;        // pieces joined to another piece of their image component
   int64_t connectTets = 0;
   int64_t chainConnections = 0;   // of them, joined through a chain of 3 to 6 tets
+  int64_t fragmentChains = 0;     // fragments no neighbour could take, given to a label through a chain
+  int64_t fragmentChainTets = 0;  // the chains' tets
   int64_t closedEdges = 0;        // non-manifold interface edges closed
   int64_t edgeTets = 0;
   double relabelledVolume = 0.0;  // mm^3, all steps together

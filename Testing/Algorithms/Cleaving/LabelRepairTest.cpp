@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <map>
 #include <random>
+#include <set>
 
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/Cleaving/Cleaver.h"
@@ -335,6 +336,58 @@ TEST(LabelRepair, APieceNoShortPathReachesIsJoinedByAChain) {
       EXPECT_EQ(st.chainConnections, 0);
     }
   }
+}
+
+// A fragment no neighbouring label may take: a speck of brain in the skull layer between a tongue
+// of scalp and a bulge of the CSF (scalp and CSF never touch). It takes the label the image
+// favours there among those allowed next to all its neighbours (skull), and a least-volume chain
+// of tets to the skull takes it too, so it is no island (found on the particle net, seed 4).
+TEST(LabelRepair, AFragmentNoNeighbourMayTakeGoesToTheLayerItLiesIn) {
+  LabelVolume v; // slabs along x: scalp 0-2 | skull 3-5 | CSF 6-8 | brain 9-11
+  GridGeometry g;
+  g.dims = {12, 7, 7};
+  v.allocate(g, 1);
+  for (int64_t k = 0; k < 7; ++k)
+    for (int64_t j = 0; j < 7; ++j)
+      for (int64_t i = 3; i < 12; ++i) v.at(i, j, k) = i < 6 ? 2 : i < 9 ? 3 : 4;
+  LabelVolume w = v; // the mesh's labels
+  w.at(5, 3, 3) = 4;                  // the speck
+  w.at(3, 3, 3) = w.at(4, 3, 3) = 1;  // the scalp's tongue
+  for (const auto& [j, k] : std::vector<std::pair<int64_t, int64_t>>{{2, 3}, {4, 3}, {3, 2}, {3, 4}})
+    w.at(5, j, k) = 3; // the CSF's bulge
+  TetMesh m = test::voxelMesh(w);
+  const auto vol = std::make_shared<const LabelVolume>(v);
+  const LabelMaterials mats(vol, 0.5);
+  NullProgress np;
+  LabelRepairParams p;
+  p.contacts = p.points = p.connect = p.edges = false; // the fragments step alone
+  const TetMesh before = m;
+  const LabelRepairStats st = repairLabels(m, mats, p, np);
+  EXPECT_EQ(st.fragments, 1);
+  EXPECT_EQ(st.fragmentChains, 1);
+  EXPECT_EQ(st.fragmentTets, 6);
+  EXPECT_GE(st.fragmentChainTets, 1);
+  EXPECT_LE(st.fragmentChainTets, 6);
+  EXPECT_EQ(st.keptSmallPieces, 0);
+  for (size_t t = test::firstTet(w, 5, 3, 3); t < test::firstTet(w, 5, 3, 3) + 6; ++t) EXPECT_EQ(m.materials[t], 2);
+  for (size_t t = 0; t < m.numTets(); ++t)
+    if (m.materials[t] != before.materials[t]) {
+      EXPECT_EQ(m.materials[t], 2);
+    }
+  // Brain and skull are each one piece, and the speck's brain no longer touches the scalp.
+  const std::vector<int32_t> nb = tetFaceNeighbours(m, np);
+  DisjointSets sets = sameLabelPieces(m, nb);
+  std::map<int32_t, std::set<int32_t>> pieces;
+  for (size_t t = 0; t < m.numTets(); ++t) pieces[m.materials[t]].insert(sets.find(int32_t(t)));
+  EXPECT_EQ(pieces[2].size(), 1u);
+  EXPECT_EQ(pieces[4].size(), 1u);
+  for (size_t t = 0; t < m.numTets(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[4 * t + size_t(f)];
+      if (o >= 0 && m.materials[t] == 4) {
+        EXPECT_NE(m.materials[size_t(o)], 1) << "tet " << t;
+      }
+    }
 }
 
 TEST(LabelRepair, AForbiddenFaceIsRelabelledToTheLayerBetween) {
