@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <unordered_map>
@@ -487,7 +488,11 @@ struct TreeMesh {
   int64_t transitionTets = 0, bisectedTets = 0;
 };
 
-TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress) {
+// The tree's tets, or with `emit` only those of the leaves i with (*emit)[i] (their vertices from
+// the leaves with (*around)[i], which must include every leaf touching an emitting one: the tets
+// are then the whole mesh's tets of those leaves, with their own vertex numbering).
+TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progress& progress,
+                      const std::vector<uint8_t>* emit = nullptr, const std::vector<uint8_t>* around = nullptr) {
   TreeMesh tm;
   BackgroundMesh& bg = tm.bg;
   const int L = tree.finestLevel;
@@ -495,10 +500,11 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   auto halfToPhysical = [&](int64_t x, int64_t y, int64_t z) {
     return grid.origin + mul(grid.direction, tree.halfToLocal(x, y, z));
   };
+  auto vertexLeaf = [&](size_t i) { return !around || (*around)[i]; };
 
   TetMesh& mesh = bg.mesh;
   std::unordered_map<uint64_t, int32_t> vid;
-  vid.reserve(sorted.size() * 3);
+  vid.reserve((around ? size_t(std::count(around->begin(), around->end(), uint8_t(1))) : sorted.size()) * 3);
   auto addVertex = [&](int64_t x, int64_t y, int64_t z, LatticeVertexKind kind) {
     const auto [it, fresh] = vid.try_emplace(vertexKey(x, y, z), int32_t(mesh.points.size()));
     if (fresh) {
@@ -511,7 +517,9 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
     return it->second;
   };
   int64_t visited = 0;
-  for (uint64_t key : sorted) {
+  for (size_t i = 0; i < sorted.size(); ++i) {
+    if (!vertexLeaf(i)) continue;
+    const uint64_t key = sorted[i];
     progress.checkCancelEvery(++visited, 16);
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - keyLevel(key));
@@ -529,7 +537,9 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
   // Face-centre vertices of the leaf faces on the box (before the tets, so that the tet pass
   // only reads the vertex map and can run in parallel).
   const int64_t finest[3] = {tree.roots[0] << L, tree.roots[1] << L, tree.roots[2] << L};
-  for (uint64_t key : sorted) {
+  for (size_t i = 0; i < sorted.size(); ++i) {
+    if (!vertexLeaf(i)) continue;
+    const uint64_t key = sorted[i];
     progress.checkCancelEvery(++visited, 16);
     const auto idx = keyIndex(key);
     const int64_t s = int64_t(1) << (L - keyLevel(key));
@@ -570,12 +580,16 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
    Block& out = blocks[size_t(bi)];
    {
      // About 12 tets per leaf in a uniform region (3 faces of 4 tets each); more where graded.
-     const size_t leavesHere = size_t(std::min(nLeaves, (bi + 1) * blockSize) - bi * blockSize);
+     const size_t leavesHere =
+         emit ? size_t(std::count(emit->begin() + bi * blockSize, emit->begin() + std::min(nLeaves, (bi + 1) * blockSize),
+                                  uint8_t(1)))
+              : size_t(std::min(nLeaves, (bi + 1) * blockSize) - bi * blockSize);
      out.tets.reserve(14 * leavesHere);
      out.owner.reserve(14 * leavesHere);
      out.graded.reserve(14 * leavesHere);
    }
    for (int64_t li = bi * blockSize; li < std::min(nLeaves, (bi + 1) * blockSize); ++li) {
+    if (emit && !(*emit)[size_t(li)]) continue;
     const uint64_t key = sorted[size_t(li)];
     const int l = keyLevel(key);
     const auto idx = keyIndex(key);
@@ -674,21 +688,83 @@ TreeMesh meshFromTree(const SizingOctree& tree, const GridGeometry& grid, Progre
 
 namespace {
 
+// Marks on a grid of cells of one level (the finest whose grid has at most 2^26 cells) over the
+// tree's box: markAround(leaf) marks the cells the leaf's box overlaps and one more on every side;
+// meets(leaf) says whether the leaf's box overlaps a marked cell. So a leaf whose closed box
+// touches a marked leaf's meets it (and some others may: a superset).
+class CellMarks {
+public:
+  explicit CellMarks(const SizingOctree& tree) : L_(tree.finestLevel) {
+    int k = 0;
+    auto cells = [&](int level) {
+      return double(tree.roots[0]) * double(tree.roots[1]) * double(tree.roots[2]) * std::pow(8.0, level);
+    };
+    while (k < L_ && cells(k + 1) <= double(int64_t(1) << 26)) ++k;
+    shift_ = L_ - k;
+    for (int a = 0; a < 3; ++a) dims_[size_t(a)] = tree.roots[size_t(a)] << k;
+    marks_.assign(size_t(dims_[0] * dims_[1] * dims_[2]), 0);
+  }
+  void markAround(uint64_t key) {
+    int64_t lo[3], hi[3];
+    range(key, lo, hi);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max<int64_t>(0, lo[a] - 1);
+      hi[a] = std::min<int64_t>(dims_[size_t(a)] - 1, hi[a] + 1);
+    }
+    for (int64_t z = lo[2]; z <= hi[2]; ++z)
+      for (int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (int64_t x = lo[0]; x <= hi[0]; ++x) marks_[size_t((z * dims_[1] + y) * dims_[0] + x)] = 1;
+  }
+  bool meets(uint64_t key) const {
+    int64_t lo[3], hi[3];
+    range(key, lo, hi);
+    for (int64_t z = lo[2]; z <= hi[2]; ++z)
+      for (int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (int64_t x = lo[0]; x <= hi[0]; ++x)
+          if (marks_[size_t((z * dims_[1] + y) * dims_[0] + x)]) return true;
+    return false;
+  }
+
+private:
+  // The cells the leaf's box overlaps (inclusive).
+  void range(uint64_t key, int64_t lo[3], int64_t hi[3]) const {
+    const auto idx = keyIndex(key);
+    const int64_t s = int64_t(1) << (L_ - keyLevel(key)); // finest cells per edge
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = (idx[size_t(a)] * s) >> shift_;
+      hi[a] = ((idx[size_t(a)] + 1) * s - 1) >> shift_;
+    }
+  }
+  int L_ = 0, shift_ = 0;
+  std::array<int64_t, 3> dims_{0, 0, 0};
+  std::vector<uint8_t> marks_;
+};
+
 // Meshes a balanced tree; with `thin`, splits the leaves of tets whose edges miss a material and
 // meshes again; with `materials`, keeps graded tets off the interfaces (see the header).
 void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry& grid, Progress& progress,
-                const MaterialSet* materials, const EdgeTopology* thin) {
+                const MaterialSet* materials, const EdgeTopology* thin, bool partialRounds) {
   OctreeBccStats& st = result.stats;
   progress.beginStage("tets");
   TreeMesh tm = meshFromTree(tree, grid, progress);
   progress.endStage();
   if (thin && tree.thinLevel > 0) {
     progress.beginStage("thin layer rounds");
+    // After the first round only the leaves whose surroundings changed (a leaf was split next to
+    // them) have new tets: the rounds after it mesh and test those leaves' tets alone, and the
+    // whole tree is meshed once at the end. The tets of every other leaf are the ones the last
+    // test saw (a tet depends on its leaf and the leaves touching it), so the splits and the
+    // count of tets left are those of meshing and testing the whole tree each round.
+    std::unordered_map<uint64_t, int64_t> leftBy; // emitting leaf -> its tets left missing a material
+    std::vector<uint8_t> emit;                    // the leaves meshed in a partial round
+    bool partial = false;                         // tm holds the tets of the `emit` leaves only
     for (int round = 0;; ++round) {
       // Only the graded tets have edges the leaves' own test did not see.
       const std::vector<uint8_t> miss = tetsMissingMaterials(tm.bg.mesh, *thin, progress, &tm.graded);
+      if (partial)
+        for (size_t i = 0; i < emit.size(); ++i)
+          if (emit[i]) leftBy.erase(tree.leaves[i]);
       std::vector<uint64_t> toSplit;
-      int64_t left = 0;
       for (size_t t = 0; t < miss.size(); ++t) {
         if (!miss[t]) continue;
         const auto [a, b] = tm.owner[t];
@@ -702,13 +778,16 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
           toSplit.push_back(tree.leaves[size_t(b)]);
           split = true;
         }
-        if (!split) ++left;
+        if (!split) ++leftBy[tree.leaves[size_t(a)]]; // a: the leaf that emitted it
       }
+      int64_t left = 0;
+      for (const auto& [key, count] : leftBy) left += count;
       st.thinLayerTetsLeft = left;
       st.thinLayerRounds = round;
       std::sort(toSplit.begin(), toSplit.end());
       toSplit.erase(std::unique(toSplit.begin(), toSplit.end()), toSplit.end());
       if (toSplit.empty() || round == kThinRounds) break;
+      const std::vector<uint64_t> before = tree.leaves;
       std::vector<uint64_t> touched;
       for (uint64_t key : toSplit) tree.split(key, &touched);
       st.thinLayerSplits += int64_t(toSplit.size());
@@ -717,9 +796,36 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
       touched.insert(touched.end(), created.begin(), created.end());
       st.thinLayerSplits += splitThinLayerLeaves(tree, grid, *thin, progress, std::move(touched), st);
       tree.finish(st, &progress);
-      tm = meshFromTree(tree, grid, progress);
+      // The leaves split this round (gone from the tree); the leaves touching one of them (among
+      // them all the new ones) emit the changed tets; their vertices come from the leaves
+      // touching those.
+      std::vector<uint64_t> gone;
+      std::set_difference(before.begin(), before.end(), tree.leaves.begin(), tree.leaves.end(), std::back_inserter(gone));
+      for (uint64_t key : gone) leftBy.erase(key);
+      const int64_t nLeaves = int64_t(tree.leaves.size());
+      CellMarks changed(tree);
+      for (uint64_t key : gone) changed.markAround(key);
+      emit.assign(size_t(nLeaves), 0);
+#pragma omp parallel for schedule(static)
+      for (int64_t i = 0; i < nLeaves; ++i) emit[size_t(i)] = changed.meets(tree.leaves[size_t(i)]) ? 1 : 0;
+      CellMarks near(tree);
+      for (int64_t i = 0; i < nLeaves; ++i)
+        if (emit[size_t(i)]) near.markAround(tree.leaves[size_t(i)]);
+      std::vector<uint8_t> around(size_t(nLeaves), 0);
+#pragma omp parallel for schedule(static)
+      for (int64_t i = 0; i < nLeaves; ++i) around[size_t(i)] = near.meets(tree.leaves[size_t(i)]) ? 1 : 0;
+      progress.checkCancel();
+      if (!partialRounds) {
+        tm = meshFromTree(tree, grid, progress);
+        emit.assign(size_t(nLeaves), 1); // every leaf's tets tested again
+        partial = true;
+        continue;
+      }
+      tm = meshFromTree(tree, grid, progress, &emit, &around);
+      partial = true;
       progress.checkCancel();
     }
+    if (partial) tm = meshFromTree(tree, grid, progress);
     progress.endStage();
   }
   if (materials) {
@@ -829,7 +935,7 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
                                   Progress& progress, const MaterialSet* materials, const EdgeTopology* thin) {
   OctreeBccResult result;
   SizingOctree tree = buildSizingOctree(grid, sizing, p, result.stats, progress, thin);
-  meshOctree(result, tree, grid, progress, materials, thin);
+  meshOctree(result, tree, grid, progress, materials, thin, p.partial_thin_rounds);
   return result;
 }
 
@@ -874,7 +980,7 @@ OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& 
   }
   tree.finish(st, &progress);
   progress.endStage();
-  meshOctree(result, tree, grid, progress, materials, &thin);
+  meshOctree(result, tree, grid, progress, materials, &thin, p.partial_thin_rounds);
   return result;
 }
 

@@ -45,6 +45,10 @@ struct OctreeBccParams {
   // until their longest edge is at most this (mm); 0 = sqrt(2) x the largest voxel spacing (the
   // leaves there are then within a factor sqrt(2) of the voxel size).
   double thin_layer_cell_size = 0.0;
+  // The thin-layer rounds after the first mesh and test only the tets of the leaves whose
+  // surroundings changed, and the whole tree is meshed once at the end (the same mesh). false:
+  // mesh and test the whole tree every round (for tests that check that).
+  bool partial_thin_rounds = true;
 };
 
 struct OctreeBccStats {

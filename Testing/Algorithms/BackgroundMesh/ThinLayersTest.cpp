@@ -198,3 +198,67 @@ TEST(ThinLayers, TheOctreeIsRefinedBelowItsMinimumWhereALayerIsThin) {
   EXPECT_LT(after, 0.1 * before);
   test::expectValidClosedMesh(evaluateQuality(thin.background.mesh, QualityParams{}, np));
 }
+
+// The rounds after the first mesh and test only the leaves whose surroundings changed, and the
+// whole tree once at the end: on random blobs and one- or two-voxel sheets of several labels, on
+// refined lattices (random cell size and offset) and octrees (random sizing fields), in both
+// modes, the mesh is the one meshing and testing the whole tree every round gives, exactly, with
+// the same splits, rounds and tets left.
+TEST(ThinLayers, PartialRoundsGiveTheMeshOfWholeRounds) {
+  int secondRounds = 0;
+  for (unsigned seed = 1; seed <= 12; ++seed) {
+    SCOPED_TRACE(::testing::Message() << "seed " << seed);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    LabelVolume v;
+    GridGeometry g;
+    g.dims = {18 + int64_t(rng() % 8), 18 + int64_t(rng() % 8), 16 + int64_t(rng() % 8)};
+    g.origin = {u(rng) * 3, -u(rng) * 3, 1.0};
+    v.allocate(g, 0);
+    const int labels = 2 + int(rng() % 4);
+    for (int b = 0; b < 2 * labels; ++b) {
+      const double cx = u(rng) * double(g.dims[0]), cy = u(rng) * double(g.dims[1]), cz = u(rng) * double(g.dims[2]);
+      const double r = 2 + 5 * u(rng);
+      const int32_t L = 1 + int32_t(rng() % unsigned(labels));
+      for (int64_t k = 0; k < g.dims[2]; ++k)
+        for (int64_t j = 0; j < g.dims[1]; ++j)
+          for (int64_t i = 0; i < g.dims[0]; ++i)
+            if ((double(i) - cx) * (double(i) - cx) + (double(j) - cy) * (double(j) - cy) +
+                    (double(k) - cz) * (double(k) - cz) < r * r)
+              v.at(i, j, k) = L;
+    }
+    for (int sh = 0; sh < 2; ++sh) {
+      const int axis = int(rng() % 3);
+      const int64_t at = 2 + int64_t(rng() % unsigned(g.dims[size_t(axis)] - 4)), thick = 1 + int64_t(rng() % 2);
+      for (int64_t k = 0; k < g.dims[2]; ++k)
+        for (int64_t j = 0; j < g.dims[1]; ++j)
+          for (int64_t i = 0; i < g.dims[0]; ++i) {
+            const int64_t c = axis == 0 ? i : axis == 1 ? j : k;
+            if (c >= at && c < at + thick && (i + j + k) % 7 != 0) v.at(i, j, k) = 10 + sh; // holed sheets
+          }
+    }
+    const EdgeTopology t(v, seed % 2 ? EdgeTopology::Mode::Separating : EdgeTopology::Mode::All);
+    NullProgress np;
+    OctreeBccParams partial, whole;
+    whole.partial_thin_rounds = false;
+    std::vector<std::pair<OctreeBccResult, OctreeBccResult>> runs;
+    const BccParams bcc{2.5 + 2.5 * u(rng), u(rng)};
+    runs.push_back({generateThinLayerBcc(v.grid, bcc, partial, t, np), generateThinLayerBcc(v.grid, bcc, whole, t, np)});
+    ScalarVolume sizing;
+    sizing.allocate(v.grid, 1.0f);
+    for (float& x : sizing.data) x = float(1.5 + 6.0 * u(rng));
+    runs.push_back({generateOctreeBcc(v.grid, sizing, partial, np, nullptr, &t),
+                    generateOctreeBcc(v.grid, sizing, whole, np, nullptr, &t)});
+    for (const auto& [a, b] : runs) {
+      EXPECT_EQ(a.background.mesh.points, b.background.mesh.points);
+      EXPECT_EQ(a.background.mesh.tets, b.background.mesh.tets);
+      EXPECT_EQ(a.graded, b.graded);
+      EXPECT_EQ(a.stats.thinLayerSplits, b.stats.thinLayerSplits);
+      EXPECT_EQ(a.stats.thinLayerRounds, b.stats.thinLayerRounds);
+      EXPECT_EQ(a.stats.thinLayerTetsLeft, b.stats.thinLayerTetsLeft);
+      EXPECT_EQ(a.stats.balanceSplits, b.stats.balanceSplits);
+      secondRounds += a.stats.thinLayerRounds >= 2 ? 1 : 0;
+    }
+  }
+  EXPECT_GE(secondRounds, 3); // the partial rounds were exercised
+}
