@@ -742,11 +742,36 @@ private:
 
 // Meshes a balanced tree; with `thin`, splits the leaves of tets whose edges miss a material and
 // meshes again; with `materials`, keeps graded tets off the interfaces (see the header).
+// `splitRoots` (sorted keys), when given: the root cells that were split, every other root being a
+// leaf (the thin-layer lattice): only the leaves touching them can have graded tets, so the first
+// round too meshes and tests those alone.
 void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry& grid, Progress& progress,
-                const MaterialSet* materials, const EdgeTopology* thin, bool partialRounds) {
+                const MaterialSet* materials, const EdgeTopology* thin, bool partialRounds,
+                const std::vector<uint64_t>* splitRoots = nullptr) {
   OctreeBccStats& st = result.stats;
+  std::vector<uint8_t> emit; // the leaves meshed in a partial round
+  // The tets of the leaves touching one of `gone` (the leaves split since the last meshing, gone
+  // from the tree: among those leaves are all the new ones), with the vertices of the leaves
+  // touching those; `emit` marks the former.
+  auto meshAround = [&](const std::vector<uint64_t>& gone) {
+    const int64_t nLeaves = int64_t(tree.leaves.size());
+    CellMarks changed(tree);
+    for (uint64_t key : gone) changed.markAround(key);
+    emit.assign(size_t(nLeaves), 0);
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < nLeaves; ++i) emit[size_t(i)] = changed.meets(tree.leaves[size_t(i)]) ? 1 : 0;
+    CellMarks near(tree);
+    for (int64_t i = 0; i < nLeaves; ++i)
+      if (emit[size_t(i)]) near.markAround(tree.leaves[size_t(i)]);
+    std::vector<uint8_t> around(size_t(nLeaves), 0);
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < nLeaves; ++i) around[size_t(i)] = near.meets(tree.leaves[size_t(i)]) ? 1 : 0;
+    progress.checkCancel();
+    return meshFromTree(tree, grid, progress, &emit, &around);
+  };
+  const bool partialFirst = thin && tree.thinLevel > 0 && partialRounds && splitRoots;
   progress.beginStage("tets");
-  TreeMesh tm = meshFromTree(tree, grid, progress);
+  TreeMesh tm = partialFirst ? meshAround(*splitRoots) : meshFromTree(tree, grid, progress);
   progress.endStage();
   if (thin && tree.thinLevel > 0) {
     progress.beginStage("thin layer rounds");
@@ -756,8 +781,7 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
     // test saw (a tet depends on its leaf and the leaves touching it), so the splits and the
     // count of tets left are those of meshing and testing the whole tree each round.
     std::unordered_map<uint64_t, int64_t> leftBy; // emitting leaf -> its tets left missing a material
-    std::vector<uint8_t> emit;                    // the leaves meshed in a partial round
-    bool partial = false;                         // tm holds the tets of the `emit` leaves only
+    bool partial = partialFirst;                  // tm holds the tets of the `emit` leaves only
     for (int round = 0;; ++round) {
       // Only the graded tets have edges the leaves' own test did not see.
       const std::vector<uint8_t> miss = tetsMissingMaterials(tm.bg.mesh, *thin, progress, &tm.graded);
@@ -802,26 +826,12 @@ void meshOctree(OctreeBccResult& result, SizingOctree& tree, const GridGeometry&
       std::vector<uint64_t> gone;
       std::set_difference(before.begin(), before.end(), tree.leaves.begin(), tree.leaves.end(), std::back_inserter(gone));
       for (uint64_t key : gone) leftBy.erase(key);
-      const int64_t nLeaves = int64_t(tree.leaves.size());
-      CellMarks changed(tree);
-      for (uint64_t key : gone) changed.markAround(key);
-      emit.assign(size_t(nLeaves), 0);
-#pragma omp parallel for schedule(static)
-      for (int64_t i = 0; i < nLeaves; ++i) emit[size_t(i)] = changed.meets(tree.leaves[size_t(i)]) ? 1 : 0;
-      CellMarks near(tree);
-      for (int64_t i = 0; i < nLeaves; ++i)
-        if (emit[size_t(i)]) near.markAround(tree.leaves[size_t(i)]);
-      std::vector<uint8_t> around(size_t(nLeaves), 0);
-#pragma omp parallel for schedule(static)
-      for (int64_t i = 0; i < nLeaves; ++i) around[size_t(i)] = near.meets(tree.leaves[size_t(i)]) ? 1 : 0;
-      progress.checkCancel();
-      if (!partialRounds) {
+      if (partialRounds) {
+        tm = meshAround(gone);
+      } else {
         tm = meshFromTree(tree, grid, progress);
-        emit.assign(size_t(nLeaves), 1); // every leaf's tets tested again
-        partial = true;
-        continue;
+        emit.assign(tree.leaves.size(), 1); // every leaf's tets tested again
       }
-      tm = meshFromTree(tree, grid, progress, &emit, &around);
       partial = true;
       progress.checkCancel();
     }
@@ -980,7 +990,16 @@ OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& 
   }
   tree.finish(st, &progress);
   progress.endStage();
-  meshOctree(result, tree, grid, progress, materials, &thin, p.partial_thin_rounds);
+  std::vector<uint64_t> splitRoots; // the roots that are no leaves
+  for (uint64_t key : tree.leaves)
+    if (keyLevel(key) > 0) {
+      const auto idx = keyIndex(key);
+      const int sh = keyLevel(key);
+      splitRoots.push_back(leafKey(0, idx[0] >> sh, idx[1] >> sh, idx[2] >> sh));
+    }
+  std::sort(splitRoots.begin(), splitRoots.end());
+  splitRoots.erase(std::unique(splitRoots.begin(), splitRoots.end()), splitRoots.end());
+  meshOctree(result, tree, grid, progress, materials, &thin, p.partial_thin_rounds, &splitRoots);
   return result;
 }
 
