@@ -434,8 +434,8 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
   };
   // Rounds of one- and two-tet paths until nothing joins (at most 8). Then the pieces left that the
   // fragments step would keep (at least their component's fragment limit, of a component with a
-  // core: the ones the certificate would count as a split) may lay chains, in the same round and
-  // in up to 8 more.
+  // core: the ones the certificate would count as a split) may lay chains, in that round and the
+  // ones after it (8 rounds in all).
   bool chains = false;
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();

@@ -27,7 +27,7 @@
 //    step 4 would keep (at least its size limit, of a component with a core: each would be a
 //    split in the certificate) may be joined by a chain of up to 6 tets of other labels, the one of
 //    least volume, each allowed next to its neighbours and touching no other piece of the label
-//    (up to 8 more rounds): a component the image joins only through voxel edges or corners has
+//    (in the round where short paths join nothing and the ones after it, 8 in all): a component the image joins only through voxel edges or corners has
 //    no face-connected path of its own between its parts. After step 3 (whose closing of a
 //    non-manifold edge can cut such a link again) the pieces step 4 would keep get the same chance
 //    once more.
