@@ -265,6 +265,14 @@ struct Steps {
   const TetJoins* joins = nullptr;    // pieces joined through a part left out (repairLabels)
 };
 
+// Gives tet t label L; its volume counts as relabelled, and its vote (`vote`: per tet, the image
+// component at its centroid when that voxel carries the tet's label) follows the new label.
+void relabel(Steps& s, std::vector<int32_t>& vote, int64_t t, int32_t L) {
+  s.st.relabelledVolume += std::abs(s.mesh.tetVolume(size_t(t)));
+  s.mesh.materials[size_t(t)] = L;
+  vote[size_t(t)] = voteImageComponent(s.labels, s.img.comp, s.frame.toIndex(tetCentroid(s.mesh, size_t(t))), L);
+}
+
 void repairContacts(Steps& s) {
   // Named references (clang 14 cannot capture structured bindings in lambdas).
   auto& mesh = s.mesh;
@@ -410,7 +418,6 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
   auto& allowed = s.allowed;
   auto& nb = s.nb;
   auto& n = s.n;
-  auto& frame = s.frame;
   progress.beginStage("repair connections");
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
   // Where no one- or two-tet path joins a piece: a chain (leastVolumeChain) whose tets may all take
@@ -515,9 +522,7 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
       if (path.empty()) return false;
       if (path.size() > 2) ++st.chainConnections;
       for (int32_t q : path) {
-        st.relabelledVolume += std::abs(mesh.tetVolume(size_t(q)));
-        mesh.materials[size_t(q)] = L;
-        vote[size_t(q)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(q))), L);
+        relabel(s, vote, q, L);
         ++st.connectTets;
         for (int f = 0; f < 4; ++f) {
           const int32_t o = nb[size_t(4 * q + f)];
@@ -708,7 +713,6 @@ void repairFragments(Steps& s) {
   auto& allowed = s.allowed;
   auto& nb = s.nb;
   auto& n = s.n;
-  auto& frame = s.frame;
   progress.beginStage("repair fragments");
   const double voxel = labels.grid.voxelVolume();
   const double limit = params.fragment_voxels * voxel;
@@ -811,15 +815,13 @@ void repairFragments(Steps& s) {
         auto it = target.find(int32_t(-1 - t));
         if (it == target.end()) it = target.find(sets.find(int32_t(t)));
         if (it == target.end()) continue;
-        mesh.materials[size_t(t)] = it->second;
-        st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
+        relabel(s, vote, t, it->second);
         if (it->first < 0) {
           ++st.strayTets;
           strayDone[size_t(t)] = 1;
         } else {
           ++st.fragmentTets;
         }
-        vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), it->second);
       }
     }
     // A piece that no neighbouring label may take (the labels around it may not touch each other:
@@ -861,18 +863,10 @@ void repairFragments(Steps& s) {
         const std::vector<int32_t> path = leastVolumeChain(
             mesh, nb, piece, L, inPiece, [&](int32_t b) { return mesh.materials[size_t(b)] == L; }, fits);
         if (path.empty()) continue;
-        for (int64_t t : piece) {
-          mesh.materials[size_t(t)] = L;
-          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-          ++st.fragmentTets;
-          vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), L);
-        }
-        for (int32_t t : path) {
-          mesh.materials[size_t(t)] = L;
-          st.relabelledVolume += std::abs(mesh.tetVolume(size_t(t)));
-          ++st.fragmentChainTets;
-          vote[size_t(t)] = voteImageComponent(labels, img.comp, frame.toIndex(tetCentroid(mesh, size_t(t))), L);
-        }
+        for (int64_t t : piece) relabel(s, vote, t, L);
+        for (int32_t t : path) relabel(s, vote, t, L);
+        st.fragmentTets += int64_t(piece.size());
+        st.fragmentChainTets += int64_t(path.size());
         ++st.fragments;
         ++st.fragmentChains;
         ++chained;
