@@ -1,6 +1,8 @@
 // Lattice cleaving, set-up: box constraints, material samples, interface points and adjacency (see CleaverStages.h).
 #include "Algorithms/Cleaving/CleaverStages.h"
 
+#include <memory>
+
 namespace tetflow::cleaving_detail {
 
 void Cleaver::computeBoxConstraints() {
@@ -66,6 +68,131 @@ void Cleaver::sample() {
   }
 }
 
+namespace {
+// Numbers the distinct K-vertex simplices (edges, faces) of n tets, Per of them per tet, in the
+// order of their sorted vertex ids: ids[i] is simplex i's vertices, tetIds[t][k] the id of tet t's
+// k-th, and list[start[i] .. start[i + 1]) the tets that have simplex i, ascending. The same
+// numbering as sorting every (vertices, 4-byte slot) pair, without that sort or its 16-byte keys:
+// each slot (Per t + k) is filed under its smallest vertex (a counting sort, both threads), then
+// each vertex's few slots are sorted by their other vertices and the slot; the slots, in that
+// order, are the tet lists. `verts(t, k)` gives the sorted vertices; n Per must fit in 32 bits.
+template <int K, int Per, class Verts>
+void numberSimplices(int64_t n, size_t nP, Verts verts, std::vector<std::array<int32_t, Per>>& tetIds,
+                     std::vector<std::array<int32_t, K>>& ids, std::vector<int64_t>& start, std::vector<int32_t>& list,
+                     Progress& progress) {
+  std::vector<uint32_t> offset(nP + 1, 0);
+  LoopCancel countCancel(progress);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t) {
+    if (countCancel.skip(t)) continue;
+    for (int k = 0; k < Per; ++k)
+      std::atomic_ref<uint32_t>(offset[static_cast<size_t>(verts(t, k)[0]) + 1]).fetch_add(1, std::memory_order_relaxed);
+  }
+  countCancel.rethrow();
+  for (size_t p = 0; p < nP; ++p) offset[p + 1] += offset[p];
+  // Not value-initialised: the fill writes every slot (its threads touch the pages first).
+  const auto slots = std::make_unique_for_overwrite<uint32_t[]>(static_cast<size_t>(n) * Per);
+  std::vector<uint32_t> count(offset.begin(), offset.end() - 1); // the fill's positions, then distinct counts
+  LoopCancel fillCancel(progress);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t) {
+    if (fillCancel.skip(t)) continue;
+    for (int k = 0; k < Per; ++k) {
+      const uint32_t at = std::atomic_ref<uint32_t>(count[static_cast<size_t>(verts(t, k)[0])])
+                              .fetch_add(1, std::memory_order_relaxed);
+      slots[at] = static_cast<uint32_t>(Per * t + k);
+    }
+  }
+  fillCancel.rethrow();
+  // The other vertices of a slot's simplex as one key.
+  auto rest = [&](uint32_t slot) {
+    const auto v = verts(int64_t(slot / Per), int(slot % Per));
+    return K == 2 ? uint64_t(uint32_t(v[1])) : (uint64_t(uint32_t(v[1])) << 32) | uint32_t(v[K - 1]);
+  };
+  // Each bucket sorted (slots in that order), and its distinct simplices counted.
+  LoopCancel sortCancel(progress);
+#pragma omp parallel
+  {
+    std::vector<std::pair<uint64_t, uint32_t>> bucket;
+#pragma omp for schedule(dynamic, 4096)
+    for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
+      if (sortCancel.skip(p)) continue;
+      bucket.clear();
+      for (uint32_t i = offset[size_t(p)]; i < offset[size_t(p) + 1]; ++i) bucket.push_back({rest(slots[i]), slots[i]});
+      std::sort(bucket.begin(), bucket.end());
+      uint32_t distinct = 0;
+      for (size_t i = 0; i < bucket.size(); ++i) {
+        slots[offset[size_t(p)] + i] = bucket[i].second;
+        distinct += i == 0 || bucket[i].first != bucket[i - 1].first ? 1 : 0;
+      }
+      count[size_t(p)] = distinct;
+    }
+  }
+  sortCancel.rethrow();
+  std::vector<uint32_t> first(nP + 1, 0); // the id of each bucket's first simplex
+  for (size_t p = 0; p < nP; ++p) first[p + 1] = first[p] + count[p];
+  std::vector<uint32_t>().swap(count);
+  ids.resize(first[nP]);
+  start.resize(size_t(first[nP]) + 1);
+  start[first[nP]] = n * Per;
+  list.resize(static_cast<size_t>(n) * Per);
+  LoopCancel idCancel(progress);
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
+    if (idCancel.skip(p)) continue;
+    int64_t id = int64_t(first[size_t(p)]) - 1;
+    uint64_t last = 0;
+    for (uint32_t i = offset[size_t(p)]; i < offset[size_t(p) + 1]; ++i) {
+      const uint32_t slot = slots[i];
+      const uint64_t r = rest(slot);
+      if (i == offset[size_t(p)] || r != last) {
+        ++id;
+        ids[size_t(id)] = verts(int64_t(slot / Per), int(slot % Per));
+        start[size_t(id)] = i;
+        last = r;
+      }
+      tetIds[slot / Per][slot % Per] = static_cast<int32_t>(id);
+      list[i] = static_cast<int32_t>(slot / Per);
+    }
+  }
+  idCancel.rethrow();
+}
+// The tets (of n, vertices by `verts(t)`) around each vertex for which keep(v) holds, ascending:
+// list[start[v] .. start[v + 1]). Counted and filled on both threads, then each list sorted.
+template <class Verts, class Keep>
+void tetsAround(int64_t n, size_t nP, Verts verts, Keep keep, std::vector<int64_t>& start, std::vector<int32_t>& list,
+                Progress& progress) {
+  start.assign(nP + 1, 0);
+  LoopCancel countCancel(progress);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t) {
+    if (countCancel.skip(t)) continue;
+    for (int32_t v : verts(t))
+      if (keep(v)) std::atomic_ref<int64_t>(start[size_t(v) + 1]).fetch_add(1, std::memory_order_relaxed);
+  }
+  countCancel.rethrow();
+  for (size_t v = 0; v < nP; ++v) start[v + 1] += start[v];
+  list.resize(static_cast<size_t>(start[nP]));
+  {
+    std::vector<int64_t> fill(start.begin(), start.end() - 1);
+    LoopCancel fillCancel(progress);
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < n; ++t) {
+      if (fillCancel.skip(t)) continue;
+      for (int32_t v : verts(t))
+        if (keep(v))
+          list[size_t(std::atomic_ref<int64_t>(fill[size_t(v)]).fetch_add(1, std::memory_order_relaxed))] =
+              static_cast<int32_t>(t);
+    }
+    fillCancel.rethrow();
+  }
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v)
+    std::sort(list.begin() + start[size_t(v)], list.begin() + start[size_t(v) + 1]);
+  progress.checkCancel();
+}
+} // namespace
+
 void Cleaver::buildInterfaces() {
   progress_.beginStage("interfaces");
   const int64_t nt = static_cast<int64_t>(m_.tets.size());
@@ -81,77 +208,34 @@ void Cleaver::buildInterfaces() {
   progress_.checkCancel();
   const int64_t ni = static_cast<int64_t>(itet_.size());
   stats_.interfaceTets = ni;
-  // Unique edges and faces of interface tets: (key, slot) pairs sorted, then numbered in one sweep
-  // (ids in key order; no search per slot).
-  struct EdgeSlot {
-    uint64_t key;
-    uint32_t slot; // 6 t + e
-    bool operator<(const EdgeSlot& o) const { return key != o.key ? key < o.key : slot < o.slot; }
-  };
-  struct FaceSlot {
-    std::array<int32_t, 3> key;
-    uint32_t slot; // 4 t + f
-    bool operator<(const FaceSlot& o) const { return key != o.key ? key < o.key : slot < o.slot; }
-  };
+  // Unique edges and faces of interface tets, numbered in the order of their sorted vertex ids.
   if (ni > int64_t(std::numeric_limits<uint32_t>::max() / 6))
     throw ProcessingError("cleaving: too many interface tets (" + std::to_string(ni) + ")");
-  std::vector<EdgeSlot> ekeys(static_cast<size_t>(ni) * 6);
-  std::vector<FaceSlot> fkeys(static_cast<size_t>(ni) * 4);
-  LoopCancel keyCancel(progress_);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < ni; ++t) {
-    if (keyCancel.skip(t)) continue;
-    const auto& q = tv(static_cast<int32_t>(t));
-    for (int e = 0; e < 6; ++e) {
-      uint32_t a = static_cast<uint32_t>(q[kEdgeVerts[e][0]]), b = static_cast<uint32_t>(q[kEdgeVerts[e][1]]);
-      if (a > b) std::swap(a, b);
-      ekeys[t * 6 + e] = {(uint64_t(a) << 32) | b, static_cast<uint32_t>(t * 6 + e)};
-    }
-    for (int f = 0; f < 4; ++f) {
-      std::array<int32_t, 3> k = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
-      std::sort(k.begin(), k.end());
-      fkeys[t * 4 + f] = {k, static_cast<uint32_t>(t * 4 + f)};
-    }
-  }
-  keyCancel.rethrow();
-  cancellableSort(ekeys, progress_);
-  cancellableSort(fkeys, progress_);
   tetEdge_.resize(static_cast<size_t>(ni));
   tetFace_.resize(static_cast<size_t>(ni));
-  for (size_t i = 0; i < ekeys.size(); ++i) {
-    if (i == 0 || ekeys[i].key != ekeys[i - 1].key)
-      edgeV_.push_back({static_cast<int32_t>(ekeys[i].key >> 32), static_cast<int32_t>(ekeys[i].key & 0xffffffffu)});
-    tetEdge_[ekeys[i].slot / 6][ekeys[i].slot % 6] = static_cast<int32_t>(edgeV_.size() - 1);
-  }
-  std::vector<EdgeSlot>().swap(ekeys);
-  progress_.checkCancel();
-  for (size_t i = 0; i < fkeys.size(); ++i) {
-    if (i == 0 || fkeys[i].key != fkeys[i - 1].key) faceV_.push_back(fkeys[i].key);
-    tetFace_[fkeys[i].slot / 4][fkeys[i].slot % 4] = static_cast<int32_t>(faceV_.size() - 1);
-  }
-  std::vector<FaceSlot>().swap(fkeys);
-  progress_.checkCancel();
+  numberSimplices<2, 6>(
+      ni, m_.points.size(),
+      [&](int64_t t, int e) {
+        const auto& q = tv(static_cast<int32_t>(t));
+        const int32_t a = q[kEdgeVerts[e][0]], b = q[kEdgeVerts[e][1]];
+        return a < b ? std::array<int32_t, 2>{a, b} : std::array<int32_t, 2>{b, a};
+      },
+      tetEdge_, edgeV_, etStart_, etList_, progress_);
+  numberSimplices<3, 4>(
+      ni, m_.points.size(),
+      [&](int64_t t, int f) {
+        const auto& q = tv(static_cast<int32_t>(t));
+        std::array<int32_t, 3> k = {q[kFaceVerts[f][0]], q[kFaceVerts[f][1]], q[kFaceVerts[f][2]]};
+        if (k[0] > k[1]) std::swap(k[0], k[1]);
+        if (k[1] > k[2]) std::swap(k[1], k[2]);
+        if (k[0] > k[1]) std::swap(k[0], k[1]);
+        return k;
+      },
+      tetFace_, faceV_, ftStart_, ftList_, progress_);
 
-  // CSR adjacency: vertex -> tets, edge -> tets, face -> tets.
-  auto buildCsr = [&](size_t n, int per, auto key, std::vector<int64_t>& start, std::vector<int32_t>& list) {
-    start.assign(n + 1, 0);
-    for (int64_t t = 0; t < ni; ++t) {
-      progress_.checkCancelEvery(int64_t(t));
-      for (int k = 0; k < per; ++k) ++start[static_cast<size_t>(key(t, k)) + 1];
-    }
-    for (size_t i = 0; i < n; ++i) start[i + 1] += start[i];
-    progress_.checkCancel();
-    list.resize(static_cast<size_t>(start[n]));
-    std::vector<int64_t> fill(start.begin(), start.end() - 1);
-    for (int64_t t = 0; t < ni; ++t) {
-      progress_.checkCancelEvery(int64_t(t));
-      for (int k = 0; k < per; ++k) list[fill[key(t, k)]++] = static_cast<int32_t>(t);
-    }
-  };
-  buildCsr(m_.points.size(), 4, [&](int64_t t, int k) { return tv(static_cast<int32_t>(t))[k]; }, vtStart_, vtList_);
-  buildCsr(edgeV_.size(), 6, [&](int64_t t, int k) { return tetEdge_[t][k]; }, etStart_, etList_);
-  buildCsr(faceV_.size(), 4, [&](int64_t t, int k) { return tetFace_[t][k]; }, ftStart_, ftList_);
-
+  tetsAround(
+      ni, m_.points.size(), [&](int64_t t) -> const TetMesh::Tet& { return tv(static_cast<int32_t>(t)); },
+      [](int32_t) { return true; }, vtStart_, vtList_, progress_);
   progress_.checkCancel();
   // Real interface points.
   const int64_t ne = static_cast<int64_t>(edgeV_.size()), nf = static_cast<int64_t>(faceV_.size());
@@ -207,20 +291,9 @@ void Cleaver::buildWarpStars() {
   const int64_t nv = static_cast<int64_t>(m_.points.size());
   const int64_t nt = static_cast<int64_t>(m_.tets.size());
   auto warpable = [&](int32_t v) { return vtStart_[v + 1] > vtStart_[v]; };
-  allStart_.assign(static_cast<size_t>(nv) + 1, 0);
-  for (int64_t t = 0; t < nt; ++t) {
-    progress_.checkCancelEvery(t);
-    for (int32_t v : m_.tets[t])
-      if (warpable(v)) ++allStart_[v + 1];
-  }
-  for (int64_t v = 0; v < nv; ++v) allStart_[v + 1] += allStart_[v];
-  allList_.resize(static_cast<size_t>(allStart_[nv]));
-  std::vector<int64_t> fill(allStart_.begin(), allStart_.end() - 1);
-  for (int64_t t = 0; t < nt; ++t) {
-    progress_.checkCancelEvery(t);
-    for (int32_t v : m_.tets[t])
-      if (warpable(v)) allList_[fill[v]++] = static_cast<int32_t>(t);
-  }
+  tetsAround(
+      nt, static_cast<size_t>(nv), [&](int64_t t) -> const TetMesh::Tet& { return m_.tets[static_cast<size_t>(t)]; },
+      warpable, allStart_, allList_, progress_);
 }
 
 void Cleaver::cullExterior() {
