@@ -12,6 +12,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include <omp.h>
+
 #include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/LabelTopology.h"
@@ -558,39 +560,46 @@ void repairEdges(Steps& s) {
   auto& n = s.n;
   progress.beginStage("repair edges");
   // Rings of tets around every edge that lies in faces of two or more labels.
-  struct EdgeTet {
-    uint64_t edge;
-    int32_t tet;
-    bool operator<(const EdgeTet& o) const { return edge != o.edge ? edge < o.edge : tet < o.tet; }
-  };
   static constexpr int kEdgeEnds[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
   auto edgeKey = [&](int32_t t, const int (&e)[2]) {
     const auto& q = mesh.tets[size_t(t)];
     const int32_t a = std::min(q[size_t(e[0])], q[size_t(e[1])]), b = std::max(q[size_t(e[0])], q[size_t(e[1])]);
     return (uint64_t(uint32_t(a)) << 32) | uint32_t(b);
   };
-  std::vector<EdgeTet> ring;
-  for (int64_t t = 0; t < n; ++t) {
-    progress.checkCancelEvery(t);
-    bool mixed = false;
-    for (int f = 0; f < 4 && !mixed; ++f) {
+  // The edges looked at are those of tets with a face on another label when the step starts (an
+  // edge in faces of two or more labels is an edge of such a tet), each with the ring of tets
+  // around it walked from the smallest such tet (ringOf): found through the vertex stars, from the
+  // edge's smaller end.
+  std::vector<uint8_t> mixed(size_t(n), 0);
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < n; ++t)
+    for (int f = 0; f < 4; ++f) {
       const int32_t o = nb[size_t(4 * t + f)];
-      mixed = o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)];
+      if (o >= 0 && mesh.materials[size_t(o)] != mesh.materials[size_t(t)]) mixed[size_t(t)] = 1;
     }
-    if (!mixed) continue;
-    for (const auto& e : kEdgeEnds) ring.push_back({edgeKey(int32_t(t), e), int32_t(t)});
-  }
-  cancellableSort(ring, progress);
-  std::vector<size_t> starts; // first entry of each edge's run in `ring`
-  for (size_t i = 0; i < ring.size(); ++i)
-    if (i == 0 || ring[i].edge != ring[i - 1].edge) starts.push_back(i);
-  starts.push_back(ring.size());
+  progress.checkCancel();
+  VertexStars own; // relabelling leaves the stars as they are: the caller's serve when it has them
+  if (!s.stars) own = vertexStars(mesh);
+  const VertexStars& stars = s.stars ? *s.stars : own;
+  auto hasVertex = [&](int32_t t, int32_t v) {
+    const auto& q = mesh.tets[size_t(t)];
+    return q[0] == v || q[1] == v || q[2] == v || q[3] == v;
+  };
+  // The smallest mixed tet with both ends of the edge (a < b), or -1 when none.
+  auto firstTet = [&](uint64_t edge) {
+    const int32_t a = int32_t(edge >> 32), b = int32_t(uint32_t(edge));
+    for (int64_t i = stars.offset[size_t(a)]; i < stars.offset[size_t(a) + 1]; ++i) {
+      const int32_t t = stars.tets[size_t(i)];
+      if (mixed[size_t(t)] && hasVertex(t, b)) return t;
+    }
+    return int32_t(-1);
+  };
   // The complete ring of tets around an edge (unmixed tets were not listed: walk the ring through
   // the faces that contain the edge), sorted.
-  auto ringOf = [&](size_t i, std::vector<int32_t>& tets) {
-    const uint32_t ea = uint32_t(ring[i].edge >> 32), eb = uint32_t(ring[i].edge);
+  auto ringOf = [&](uint64_t edge, int32_t first, std::vector<int32_t>& tets) {
+    const uint32_t ea = uint32_t(edge >> 32), eb = uint32_t(edge);
     tets.clear();
-    std::vector<int32_t> stack{ring[i].tet};
+    std::vector<int32_t> stack{first};
     while (!stack.empty()) {
       const int32_t t = stack.back();
       stack.pop_back();
@@ -629,43 +638,99 @@ void repairEdges(Steps& s) {
     }
     return out;
   };
-  // Does some label touch itself along the edge (two or more arcs)?
-  auto nonManifold = [&](const std::vector<int32_t>& tets) {
-    for (size_t a = 0; a < tets.size(); ++a) {
-      const int32_t L = mesh.materials[size_t(tets[a])];
-      bool first = true;
-      for (size_t b = 0; b < a && first; ++b) first = mesh.materials[size_t(tets[b])] != L;
-      if (first && groupsOf(tets, [&](int32_t t) { return mesh.materials[size_t(t)] == L; }).size() >= 2) return true;
-    }
-    return false;
+  struct Work {
+    uint64_t edge;
+    int32_t first; // the tet its ring is walked from
   };
   std::unordered_set<uint64_t> dirty; // edges of tets relabelled in the last round
-  const int64_t nRings = int64_t(starts.size()) - 1;
   for (int round = 0; round < 4; ++round) {
     progress.checkCancel();
     int64_t closed = 0;
     std::unordered_set<uint64_t> touched;
-    // Which rings need work: found in parallel on the round's labels, fixed in order below.
-    std::vector<uint8_t> need(size_t(nRings), 0);
+    // Which rings need work: found on both threads on the round's labels (the first round: every
+    // edge of a mixed tet, by the stars of the vertices; then the edges of the tets relabelled),
+    // fixed in the order of their edges below.
+    std::vector<uint64_t> recheck(dirty.begin(), dirty.end());
+    std::sort(recheck.begin(), recheck.end());
+    const int64_t items = round == 0 ? int64_t(mesh.numPoints()) : int64_t(recheck.size());
+    std::vector<std::vector<Work>> found(static_cast<size_t>(omp_get_max_threads()));
     LoopCancel cancel(progress);
 #pragma omp parallel
     {
-      std::vector<int32_t> tets;
+      std::vector<int32_t> tets, stack;
+      std::vector<std::pair<int32_t, int32_t>> ends; // (other end, tet)
+      std::vector<int> parent;
+      std::vector<Work>& mine = found[size_t(omp_get_thread_num())];
+      // nonManifold(ringOf(...)) without their allocations: the ring's tets joined where they
+      // share a face and a label; some label touches itself along the edge when there are more
+      // such groups than labels.
+      auto look = [&](uint64_t edge, int32_t first) {
+        const uint32_t ea = uint32_t(edge >> 32), eb = uint32_t(edge);
+        tets.clear();
+        stack.assign(1, first);
+        while (!stack.empty()) {
+          const int32_t t = stack.back();
+          stack.pop_back();
+          if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
+          tets.push_back(t);
+          const auto& q = mesh.tets[size_t(t)];
+          for (int f = 0; f < 4; ++f) {
+            const int32_t o = nb[size_t(4 * t + f)];
+            if (o >= 0 && uint32_t(q[size_t(f)]) != ea && uint32_t(q[size_t(f)]) != eb) stack.push_back(o);
+          }
+        }
+        const size_t k = tets.size();
+        parent.resize(k);
+        size_t groups = k, labelsHere = 0;
+        for (size_t x = 0; x < k; ++x) {
+          parent[x] = int(x);
+          const int32_t L = mesh.materials[size_t(tets[x])];
+          bool firstOfLabel = true;
+          for (size_t y = 0; y < x; ++y) {
+            if (mesh.materials[size_t(tets[y])] != L) continue;
+            firstOfLabel = false;
+            if (!linked(tets[x], tets[y])) continue;
+            int rx = int(x), ry = int(y);
+            while (parent[size_t(rx)] != rx) rx = parent[size_t(rx)];
+            while (parent[size_t(ry)] != ry) ry = parent[size_t(ry)];
+            if (rx == ry) continue;
+            parent[size_t(std::max(rx, ry))] = std::min(rx, ry);
+            --groups;
+          }
+          labelsHere += firstOfLabel ? 1 : 0;
+        }
+        if (groups > labelsHere) mine.push_back({edge, first});
+      };
 #pragma omp for schedule(dynamic, 1024)
-      for (int64_t g = 0; g < nRings; ++g) {
+      for (int64_t g = 0; g < items; ++g) {
         if (cancel.skip(g)) continue;
-        const size_t i = starts[size_t(g)];
-        if (round > 0 && !dirty.count(ring[i].edge)) continue;
-        ringOf(i, tets);
-        need[size_t(g)] = nonManifold(tets) ? 1 : 0;
+        if (round > 0) {
+          const int32_t first = firstTet(recheck[size_t(g)]);
+          if (first >= 0) look(recheck[size_t(g)], first);
+          continue;
+        }
+        const int32_t a = int32_t(g);
+        ends.clear();
+        for (int64_t i = stars.offset[size_t(a)]; i < stars.offset[size_t(a) + 1]; ++i) {
+          const int32_t t = stars.tets[size_t(i)];
+          if (!mixed[size_t(t)]) continue;
+          for (int32_t v : mesh.tets[size_t(t)])
+            if (v > a) ends.push_back({v, t});
+        }
+        std::sort(ends.begin(), ends.end());
+        for (size_t i = 0; i < ends.size(); ++i)
+          if (i == 0 || ends[i].first != ends[i - 1].first)
+            look((uint64_t(uint32_t(a)) << 32) | uint32_t(ends[i].first), ends[i].second);
       }
     }
     cancel.rethrow();
+    std::vector<Work> work;
+    for (auto& f : found) work.insert(work.end(), f.begin(), f.end());
+    std::sort(work.begin(), work.end(), [](const Work& x, const Work& y) { return x.edge < y.edge; });
     std::vector<int32_t> tets;
-    for (int64_t g = 0; g < nRings; ++g) {
-      if (!need[size_t(g)]) continue;
+    for (size_t g = 0; g < work.size(); ++g) {
       if ((g & 1023) == 0) progress.checkCancel();
-      ringOf(starts[size_t(g)], tets);
+      ringOf(work[g].edge, work[g].first, tets);
       auto groups = [&](auto inSet) { return groupsOf(tets, inSet); };
       std::set<int32_t> labelsHere;
       for (int32_t t : tets) labelsHere.insert(mesh.materials[size_t(t)]);
@@ -1007,7 +1072,10 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   if (nb.empty()) nb = tetFaceNeighbours(mesh, progress);
   countForbidden(mesh, nb, allowed, st.forbiddenFacesBefore, st.forbiddenAreaBefore);
 
-  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, nullptr, joins};
+  // The vertex stars, for the point contacts and the edges (relabelling leaves them as they are).
+  VertexStars stars;
+  if (params.points || params.edges) stars = vertexStars(mesh);
+  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, &stars, joins};
   if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (params.points) repairPointContacts(s);
   if (params.connect) repairConnections(s);
