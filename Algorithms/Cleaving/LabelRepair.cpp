@@ -128,14 +128,14 @@ struct RunningSums {
   }
 };
 
-std::vector<uint8_t> primaryPieces(const TetMesh& mesh, DisjointSets& sets, const std::vector<int32_t>& vote,
-                                   const LabelImageTopology* keepCores = nullptr,
+std::vector<uint8_t> primaryPieces(const TetMesh& mesh, const std::vector<double>& size, DisjointSets& sets,
+                                   const std::vector<int32_t>& vote, const LabelImageTopology* keepCores = nullptr,
                                    std::unordered_set<uint64_t>* pairs = nullptr) {
   std::unordered_map<uint64_t, double> votes; // (image comp, root) -> volume
   RunningSums sums{votes};
   for (size_t t = 0; t < mesh.numTets(); ++t)
     if (vote[t] >= 0)
-      sums.add((uint64_t(uint32_t(vote[t])) << 32) | uint32_t(sets.find(int32_t(t))), std::abs(mesh.tetVolume(t)));
+      sums.add((uint64_t(uint32_t(vote[t])) << 32) | uint32_t(sets.find(int32_t(t))), size[t]);
   std::vector<std::pair<uint64_t, double>> sorted(votes.begin(), votes.end());
   std::sort(sorted.begin(), sorted.end());
   std::vector<uint8_t> primary(mesh.numTets(), 0);
@@ -265,6 +265,8 @@ struct Steps {
   IndexFrame frame;
   const VertexStars* stars = nullptr; // the mesh's vertex stars when already built (else built where needed)
   const TetJoins* joins = nullptr;    // pieces joined through a part left out (repairLabels)
+  // Per tet, |volume| (the geometry stays as it is): for the connections and the fragments.
+  const std::vector<double>* size = nullptr;
 };
 
 // Gives tet t label L; its volume counts as relabelled, and its vote (`vote`: per tet, the image
@@ -420,6 +422,7 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
   auto& allowed = s.allowed;
   auto& nb = s.nb;
   auto& n = s.n;
+  const std::vector<double>& size = *s.size;
   progress.beginStage("repair connections");
   std::vector<int32_t> vote = tetVotes(mesh, labels, img.comp);
   // Where no one- or two-tet path joins a piece: a chain (leastVolumeChain) whose tets may all take
@@ -452,7 +455,7 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
     progress.checkCancel();
     // The primary piece of every image component, then the other pieces that vote for one, with
     // their tets, the components they vote for, their volume and their voting volume by component.
-    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote);
+    const std::vector<uint8_t> primary = primaryPieces(mesh, size, sets, vote);
     progress.checkCancel();
     std::map<int32_t, std::vector<int64_t>> tetsOf;
     std::map<int32_t, std::set<int32_t>> compsOf;
@@ -462,7 +465,7 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
       progress.checkCancelEvery(t);
       const int32_t r = sets.find(int32_t(t));
       if (primary[size_t(r)]) continue;
-      const double v = std::abs(mesh.tetVolume(size_t(t)));
+      const double v = size[size_t(t)];
       volumeOf[r] += v;
       if (vote[size_t(t)] < 0) continue;
       compsOf[r].insert(vote[size_t(t)]);
@@ -778,6 +781,7 @@ void repairFragments(Steps& s) {
   auto& allowed = s.allowed;
   auto& nb = s.nb;
   auto& n = s.n;
+  const std::vector<double>& size = *s.size;
   progress.beginStage("repair fragments");
   const double voxel = labels.grid.voxelVolume();
   const double limit = params.fragment_voxels * voxel;
@@ -793,10 +797,10 @@ void repairFragments(Steps& s) {
     std::vector<double> volume(mesh.numTets(), 0.0);
     for (int64_t t = 0; t < n; ++t) {
       progress.checkCancelEvery(t);
-      volume[size_t(sets.find(int32_t(t)))] += std::abs(mesh.tetVolume(size_t(t)));
+      volume[size_t(sets.find(int32_t(t)))] += size[size_t(t)];
     }
     std::unordered_set<uint64_t> primaryOf; // (comp, root) pairs
-    const std::vector<uint8_t> primary = primaryPieces(mesh, sets, vote, &img, &primaryOf);
+    const std::vector<uint8_t> primary = primaryPieces(mesh, size, sets, vote, &img, &primaryOf);
     progress.checkCancel();
     // The image component each piece votes for most (-1: none), and its size limit: fragment_voxels,
     // or kFragmentShare of that component (of its label's voxels when it votes for none).
@@ -805,7 +809,7 @@ void repairFragments(Steps& s) {
     for (int64_t t = 0; t < n; ++t)
       if (vote[size_t(t)] >= 0)
         sums.add((uint64_t(uint32_t(sets.find(int32_t(t)))) << 32) | uint32_t(vote[size_t(t)]),
-                 std::abs(mesh.tetVolume(size_t(t))));
+                 size[size_t(t)]);
     std::vector<std::pair<uint64_t, double>> pv(pieceVotes.begin(), pieceVotes.end());
     std::sort(pv.begin(), pv.end());
     std::unordered_map<int32_t, std::pair<int32_t, double>> mainComp; // root -> (comp, votes)
@@ -1075,7 +1079,13 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
   // The vertex stars, for the point contacts and the edges (relabelling leaves them as they are).
   VertexStars stars;
   if (params.points || params.edges) stars = vertexStars(mesh);
-  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, &stars, joins};
+  std::vector<double> size;
+  if (params.connect || params.fragments) {
+    size.resize(size_t(n));
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < n; ++t) size[size_t(t)] = std::abs(mesh.tetVolume(size_t(t)));
+  }
+  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, &stars, joins, &size};
   if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (params.points) repairPointContacts(s);
   if (params.connect) repairConnections(s);

@@ -361,8 +361,11 @@ DisjointSets sameLabelPieces(const TetMesh& mesh, const std::vector<int32_t>& nb
   if (joins)
     for (const auto& [a, b] : *joins)
       if (mesh.materials[size_t(a)] == mesh.materials[size_t(b)]) sets.unite(a, b);
+  // Every parent is at most its child (the smaller root wins), so one pass in order points each
+  // tet at its root: later finds take one step.
   DisjointSets out(0);
   out.parent = std::move(sets.parent);
+  for (int64_t t = 0; t < n; ++t) out.parent[size_t(t)] = out.parent[size_t(out.parent[size_t(t)])];
   return out;
 }
 
