@@ -15,6 +15,7 @@
 #include <atomic>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <unordered_map>
@@ -109,32 +110,61 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
     for (const auto& b : bands) band.insert(band.end(), b.begin(), b.end()); // static: in order
   }
   progress.checkCancel();
-  for (int32_t t : band)
-    for (int32_t v : tets[size_t(t)])
-      if (const int32_t s = slot[size_t(v)]; s >= 0) ++offset[size_t(s) + 1];
-  for (int64_t m = 0; m < nm; ++m) offset[size_t(m) + 1] += offset[size_t(m)];
+  // Star entries: counted per thread over its share of the band (contiguous, in order), so that
+  // each thread fills its own places in every star, and a star lists its tets in band order.
+  const int bandThreads = omp_get_max_threads();
+  const int64_t nb = int64_t(band.size());
+  auto shareBegin = [&](int th) { return nb * th / bandThreads; };
+  std::vector<std::vector<int64_t>> place(static_cast<size_t>(bandThreads)); // per thread: count, then next place
+#pragma omp parallel num_threads(bandThreads)
+  {
+    const int th = omp_get_thread_num();
+    std::vector<int64_t>& mine = place[size_t(th)];
+    mine.assign(size_t(nm), 0);
+    for (int64_t b = shareBegin(th); b < shareBegin(th + 1); ++b)
+      for (int32_t v : tets[size_t(band[size_t(b)])])
+        if (const int32_t s = slot[size_t(v)]; s >= 0) ++mine[size_t(s)];
+  }
+  progress.checkCancel();
+  for (int64_t m = 0; m < nm; ++m) {
+    int64_t at = offset[size_t(m)];
+    for (auto& mine : place) {
+      const int64_t c = mine[size_t(m)];
+      mine[size_t(m)] = at;
+      at += c;
+    }
+    offset[size_t(m) + 1] = at;
+  }
   const int64_t entries = offset[size_t(nm)];
   if (np + entries > std::numeric_limits<int32_t>::max())
     throw InputError("label repair check: the mesh has too many vertices and star entries (" +
                      std::to_string(np + entries) + ") for 32-bit indices");
-  std::vector<int64_t> entryOf(4 * band.size(), -1); // per band tet and corner: its star entry
+  // Not value-initialised: every place is written by the fill below.
+  const auto entryOf = std::make_unique_for_overwrite<int64_t[]>(4 * band.size()); // per band tet and corner: its star entry
   // The stars: their tets' vertices and labels, copied in star order (read one star after
   // another, not scattered over the mesh).
   struct StarTet {
     std::array<int32_t, 4> v;
     int32_t label;
   };
-  std::vector<StarTet> starTet(static_cast<size_t>(entries));
+  const auto starTet = std::make_unique_for_overwrite<StarTet[]>(static_cast<size_t>(entries));
+#pragma omp parallel num_threads(bandThreads)
   {
-    std::vector<int64_t> fill(offset.begin(), offset.end() - 1);
-    for (size_t b = 0; b < band.size(); ++b)
-      for (int c = 0; c < 4; ++c)
-        if (const int32_t s = slot[size_t(tets[size_t(band[b])][size_t(c)])]; s >= 0) {
+    const int th = omp_get_thread_num();
+    std::vector<int64_t>& fill = place[size_t(th)];
+    for (int64_t b = shareBegin(th); b < shareBegin(th + 1); ++b)
+      for (int c = 0; c < 4; ++c) {
+        const int32_t t = band[size_t(b)];
+        if (const int32_t s = slot[size_t(tets[size_t(t)][size_t(c)])]; s >= 0) {
           const int64_t e = fill[size_t(s)]++;
-          starTet[size_t(e)] = {tets[size_t(band[b])], mats[size_t(band[b])]};
-          entryOf[4 * b + size_t(c)] = e;
+          starTet[size_t(e)] = {tets[size_t(t)], mats[size_t(t)]};
+          entryOf[4 * size_t(b) + size_t(c)] = e;
+        } else {
+          entryOf[4 * size_t(b) + size_t(c)] = -1;
         }
+      }
   }
+  std::vector<std::vector<int64_t>>().swap(place);
   progress.checkCancel();
   // At each mixed vertex v: forbidden pairs; the groups of its tets joined through faces, which
   // are the edges of v's link that two tets (triangles of the link) share; and two groups of one
@@ -152,7 +182,7 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
       const int64_t o = offset[size_t(m)];
       const int32_t k = int32_t(offset[size_t(m) + 1] - o);
       const int32_t v = mixedList[size_t(m)];
-      const StarTet* t0 = starTet.data() + o;
+      const StarTet* t0 = starTet.get() + o;
       auto label = [&](int32_t a) { return t0[a].label; };
       bool bad = false;
       labels.clear();
@@ -260,11 +290,15 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
   if (!check.extraPieces) return check;
   // Pieces per label: the largest stays; the others are extra (their tets listed when small).
   std::vector<int32_t> pieceOf(static_cast<size_t>(nt)), size(sets.parent.size(), 0), low(sets.parent.size(), -1);
-  for (size_t t = 0, b = 0; t < size_t(nt); ++t) {
-    const bool inBand = b < band.size() && size_t(band[b]) == t;
-    const int32_t r = sets.find(inBand ? element(b, 0) : tets[t][0]);
-    b += inBand;
-    pieceOf[t] = r;
+  // Each tet's element's root, on both threads: a tet off the band by its first vertex (the band's
+  // tets are given theirs after).
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nt; ++t) pieceOf[size_t(t)] = sets.find(tets[size_t(t)][0]);
+#pragma omp parallel for schedule(static)
+  for (int64_t b = 0; b < int64_t(band.size()); ++b) pieceOf[size_t(band[size_t(b)])] = sets.find(element(size_t(b), 0));
+  progress.checkCancel();
+  for (size_t t = 0; t < size_t(nt); ++t) {
+    const int32_t r = pieceOf[t];
     ++size[size_t(r)];
     if (low[size_t(r)] < 0) low[size_t(r)] = int32_t(t); // the piece's first tet
   }
