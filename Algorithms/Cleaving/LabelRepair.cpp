@@ -17,6 +17,7 @@
 #include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/LabelTopology.h"
+#include "Algorithms/Quality/TrackedPieces.h"
 
 namespace tetflow {
 
@@ -267,6 +268,8 @@ struct Steps {
   const TetJoins* joins = nullptr;    // pieces joined through a part left out (repairLabels)
   // Per tet, |volume| (the geometry stays as it is): for the connections and the fragments.
   const std::vector<double>* size = nullptr;
+  // The same-label pieces, round after round (the connections and the fragments).
+  TrackedPieces* pieces = nullptr;
 };
 
 // Gives tet t label L; its volume counts as relabelled, and its vote (`vote`: per tet, the image
@@ -451,7 +454,7 @@ void repairConnections(Steps& s, bool lastingOnly = false) {
   bool chains = false;
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
-    DisjointSets sets = sameLabelPieces(mesh, nb, s.joins);
+    DisjointSets sets = s.pieces->now();
     progress.checkCancel();
     // The primary piece of every image component, then the other pieces that vote for one, with
     // their tets, the components they vote for, their volume and their voting volume by component.
@@ -791,7 +794,7 @@ void repairFragments(Steps& s) {
   std::vector<uint8_t> strayDone(size_t(n), 0); // a stray moves once
   for (int round = 0; round < 8; ++round) {
     progress.checkCancel();
-    DisjointSets sets = sameLabelPieces(mesh, nb, s.joins);
+    DisjointSets sets = s.pieces->now();
     progress.checkCancel();
     // Pieces (by root), their volume, and the primary piece of every image component.
     std::vector<double> volume(mesh.numTets(), 0.0);
@@ -1085,7 +1088,9 @@ LabelRepairStats repairLabels(TetMesh& mesh, const MaterialSet& materials, const
 #pragma omp parallel for schedule(static)
     for (int64_t t = 0; t < n; ++t) size[size_t(t)] = std::abs(mesh.tetVolume(size_t(t)));
   }
-  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, &stars, joins, &size};
+  TrackedPieces pieces(mesh, nb, joins);
+  Steps s{mesh, materials, params, progress, st, labels, img, allowed, nb, n, IndexFrame{labels.grid}, &stars, joins, &size,
+          &pieces};
   if (params.contacts && st.forbiddenFacesBefore > 0) repairContacts(s);
   if (params.points) repairPointContacts(s);
   if (params.connect) repairConnections(s);
