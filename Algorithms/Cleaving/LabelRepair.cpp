@@ -600,12 +600,12 @@ void repairEdges(Steps& s) {
     }
     return int32_t(-1);
   };
-  // The complete ring of tets around an edge (unmixed tets were not listed: walk the ring through
-  // the faces that contain the edge), sorted.
-  auto ringOf = [&](uint64_t edge, int32_t first, std::vector<int32_t>& tets) {
+  // The complete ring of tets around an edge, from its first tet through the faces that contain
+  // the edge (`stack`: a buffer); ringOf: sorted.
+  auto walkRing = [&](uint64_t edge, int32_t first, std::vector<int32_t>& tets, std::vector<int32_t>& stack) {
     const uint32_t ea = uint32_t(edge >> 32), eb = uint32_t(edge);
     tets.clear();
-    std::vector<int32_t> stack{first};
+    stack.assign(1, first);
     while (!stack.empty()) {
       const int32_t t = stack.back();
       stack.pop_back();
@@ -613,12 +613,14 @@ void repairEdges(Steps& s) {
       tets.push_back(t);
       const auto& q = mesh.tets[size_t(t)];
       for (int f = 0; f < 4; ++f) {
-        const int32_t omitted = q[size_t(f)];
-        if (uint32_t(omitted) == ea || uint32_t(omitted) == eb) continue; // face lacks the edge
         const int32_t o = nb[size_t(4 * t + f)];
-        if (o >= 0) stack.push_back(o);
+        if (o >= 0 && uint32_t(q[size_t(f)]) != ea && uint32_t(q[size_t(f)]) != eb) stack.push_back(o);
       }
     }
+  };
+  auto ringOf = [&](uint64_t edge, int32_t first, std::vector<int32_t>& tets) {
+    std::vector<int32_t> stack;
+    walkRing(edge, first, tets, stack);
     std::sort(tets.begin(), tets.end());
   };
   auto linked = [&](int32_t x, int32_t y) {
@@ -671,20 +673,7 @@ void repairEdges(Steps& s) {
       // share a face and a label; some label touches itself along the edge when there are more
       // such groups than labels.
       auto look = [&](uint64_t edge, int32_t first) {
-        const uint32_t ea = uint32_t(edge >> 32), eb = uint32_t(edge);
-        tets.clear();
-        stack.assign(1, first);
-        while (!stack.empty()) {
-          const int32_t t = stack.back();
-          stack.pop_back();
-          if (std::find(tets.begin(), tets.end(), t) != tets.end()) continue;
-          tets.push_back(t);
-          const auto& q = mesh.tets[size_t(t)];
-          for (int f = 0; f < 4; ++f) {
-            const int32_t o = nb[size_t(4 * t + f)];
-            if (o >= 0 && uint32_t(q[size_t(f)]) != ea && uint32_t(q[size_t(f)]) != eb) stack.push_back(o);
-          }
-        }
+        walkRing(edge, first, tets, stack);
         const size_t k = tets.size();
         parent.resize(k);
         size_t groups = k, labelsHere = 0;
