@@ -67,6 +67,7 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
 #pragma omp for schedule(static)
     for (int64_t v = 0; v < np; ++v)
       for (int th = 1; th < threads; ++th) {
+        if (firsts[size_t(th)].empty()) continue; // a thread the team did not get
         const int32_t a = firsts[0][size_t(v)], b = firsts[size_t(th)][size_t(v)];
         if (a == kUnset) firsts[0][size_t(v)] = b;
         else if (b != kUnset && b != a) mixed[size_t(v)] = 1;
@@ -110,18 +111,18 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
     for (const auto& b : bands) band.insert(band.end(), b.begin(), b.end()); // static: in order
   }
   progress.checkCancel();
-  // Star entries: counted per thread over its share of the band (contiguous, in order), so that
-  // each thread fills its own places in every star, and a star lists its tets in band order.
-  const int bandThreads = omp_get_max_threads();
+  // Star entries: counted per share of the band (contiguous, in order; one share per thread, any
+  // thread may take any), so that each share fills its own places in every star, and a star lists
+  // its tets in band order.
+  const int shares = omp_get_max_threads();
   const int64_t nb = int64_t(band.size());
-  auto shareBegin = [&](int th) { return nb * th / bandThreads; };
-  std::vector<std::vector<int64_t>> place(static_cast<size_t>(bandThreads)); // per thread: count, then next place
-#pragma omp parallel num_threads(bandThreads)
-  {
-    const int th = omp_get_thread_num();
-    std::vector<int64_t>& mine = place[size_t(th)];
+  auto shareBegin = [&](int sh) { return nb * sh / shares; };
+  std::vector<std::vector<int64_t>> place(static_cast<size_t>(shares)); // per share: count, then next place
+#pragma omp parallel for schedule(static, 1)
+  for (int sh = 0; sh < shares; ++sh) {
+    std::vector<int64_t>& mine = place[size_t(sh)];
     mine.assign(size_t(nm), 0);
-    for (int64_t b = shareBegin(th); b < shareBegin(th + 1); ++b)
+    for (int64_t b = shareBegin(sh); b < shareBegin(sh + 1); ++b)
       for (int32_t v : tets[size_t(band[size_t(b)])])
         if (const int32_t s = slot[size_t(v)]; s >= 0) ++mine[size_t(s)];
   }
@@ -148,11 +149,10 @@ LabelRepairCheck checkWith(const TetMesh& mesh, const MakeTouch& makeTouch, Prog
     int32_t label;
   };
   const auto starTet = std::make_unique_for_overwrite<StarTet[]>(static_cast<size_t>(entries));
-#pragma omp parallel num_threads(bandThreads)
-  {
-    const int th = omp_get_thread_num();
-    std::vector<int64_t>& fill = place[size_t(th)];
-    for (int64_t b = shareBegin(th); b < shareBegin(th + 1); ++b)
+#pragma omp parallel for schedule(static, 1)
+  for (int sh = 0; sh < shares; ++sh) {
+    std::vector<int64_t>& fill = place[size_t(sh)];
+    for (int64_t b = shareBegin(sh); b < shareBegin(sh + 1); ++b)
       for (int c = 0; c < 4; ++c) {
         const int32_t t = band[size_t(b)];
         if (const int32_t s = slot[size_t(tets[size_t(t)][size_t(c)])]; s >= 0) {
