@@ -669,9 +669,8 @@ void repairEdges(Steps& s) {
       std::vector<std::pair<int32_t, int32_t>> ends; // (other end, tet)
       std::vector<int> parent;
       std::vector<Work>& mine = found[size_t(omp_get_thread_num())];
-      // nonManifold(ringOf(...)) without their allocations: the ring's tets joined where they
-      // share a face and a label; some label touches itself along the edge when there are more
-      // such groups than labels.
+      // Whether some label touches itself along the edge: the ring's tets joined where they share
+      // a face and a label; more such groups than labels means a label has two arcs there.
       auto look = [&](uint64_t edge, int32_t first) {
         walkRing(edge, first, tets, stack);
         const size_t k = tets.size();
