@@ -13,6 +13,7 @@
 #include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "LabelTopology.h"
+#include "VoxelOwners.h"
 
 namespace tetflow {
 
@@ -50,7 +51,6 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     throw InputError("mesh of " + std::to_string(mesh.numTets()) + " tets is too large for the certificate");
   const auto& g = labels.grid;
   const int64_t nx = g.dims[0], ny = g.dims[1];
-  const int64_t nVox = g.voxelCount();
   const int64_t nTets = static_cast<int64_t>(mesh.numTets());
 
   progress.beginStage("image");
@@ -104,47 +104,31 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   // --- rasterise: the tet containing each voxel centre (smallest index on shared faces) -------
   progress.beginStage("match");
-  const IndexFrame frame{g};
-  std::vector<Vec3> ip(mesh.numPoints());
-#pragma omp parallel for schedule(static)
-  for (int64_t p = 0; p < static_cast<int64_t>(mesh.numPoints()); ++p)
-    ip[static_cast<size_t>(p)] = frame.toIndex(mesh.points[static_cast<size_t>(p)]);
-  std::vector<int32_t> owner(static_cast<size_t>(nVox), std::numeric_limits<int32_t>::max());
-  std::atomic<bool> cancelled{false};
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (int64_t t = 0; t < nTets; ++t) {
-    if ((t & 4095) == 0 && progress.cancelRequested()) cancelled = true;
-    if (cancelled.load(std::memory_order_relaxed)) continue;
-    const auto& q = mesh.tets[static_cast<size_t>(t)];
-    const Vec3 P[4] = {ip[size_t(q[0])], ip[size_t(q[1])], ip[size_t(q[2])], ip[size_t(q[3])]};
-    int64_t lo[3], hi[3];
-    bool empty = false;
-    for (int a = 0; a < 3; ++a) {
-      const double mn = std::min({P[0][a], P[1][a], P[2][a], P[3][a]});
-      const double mx = std::max({P[0][a], P[1][a], P[2][a], P[3][a]});
-      lo[a] = std::max<int64_t>(0, static_cast<int64_t>(std::ceil(mn - 1e-9)));
-      hi[a] = std::min<int64_t>(g.dims[a] - 1, static_cast<int64_t>(std::floor(mx + 1e-9)));
-      if (lo[a] > hi[a]) empty = true;
+  // Voxel centres in the mesh (covered) and in tets of their own label (agree), per image
+  // component.
+  const size_t nComps = img.comps.size();
+  std::vector<int64_t> coveredComp(nComps, 0), agreeComp(nComps, 0);
+  const size_t threads = static_cast<size_t>(omp_get_max_threads());
+  std::vector<std::vector<int64_t>> cov(threads), agr(threads);
+  const VoxelOwners owners(mesh, g, progress, [&](int me, int64_t v, int32_t t, int w) {
+    auto& c = cov[size_t(me)];
+    auto& a = agr[size_t(me)];
+    if (c.empty()) {
+      c.assign(nComps, 0);
+      a.assign(nComps, 0);
     }
-    if (empty) continue;
-    const double vol = signedTetVolume(P[0], P[1], P[2], P[3]);
-    if (vol == 0.0) continue;
-    const double tol = -1e-9 * std::abs(vol);
-    for (int64_t k = lo[2]; k <= hi[2]; ++k)
-      for (int64_t j = lo[1]; j <= hi[1]; ++j)
-        for (int64_t i = lo[0]; i <= hi[0]; ++i) {
-          const Vec3 x{double(i), double(j), double(k)};
-          const double s = vol > 0 ? 1.0 : -1.0;
-          if (s * signedTetVolume(x, P[1], P[2], P[3]) < tol || s * signedTetVolume(P[0], x, P[2], P[3]) < tol ||
-              s * signedTetVolume(P[0], P[1], x, P[3]) < tol || s * signedTetVolume(P[0], P[1], P[2], x) < tol)
-            continue;
-          std::atomic_ref<int32_t> o(owner[static_cast<size_t>(i + nx * (j + ny * k))]);
-          int32_t cur = o.load(std::memory_order_relaxed);
-          while (t < cur && !o.compare_exchange_weak(cur, static_cast<int32_t>(t), std::memory_order_relaxed)) {
-          }
-        }
-  }
-  if (cancelled) throw Cancelled();
+    const size_t comp = static_cast<size_t>(img.comp[size_t(v)]);
+    c[comp] += w;
+    if (mesh.materials[size_t(t)] == labels.data[size_t(v)]) a[comp] += w;
+  });
+  for (size_t th = 0; th < threads; ++th)
+    for (size_t c = 0; c < cov[th].size(); ++c) {
+      coveredComp[c] += cov[th][c];
+      agreeComp[c] += agr[th][c];
+    }
+  std::vector<std::vector<int64_t>>().swap(cov);
+  std::vector<std::vector<int64_t>>().swap(agr);
+  const std::vector<Vec3>& ip = owners.indexPoints();
 
   // --- votes: every tet for the image component of its label at / next to its centroid -------
   std::vector<int32_t> vote(mesh.numTets(), -1);
@@ -188,12 +172,11 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     // labels' tets over its voxels) was not stripped. Voxel centres in a tet, per candidate label.
     if (std::find(strippedComp.begin(), strippedComp.end(), 1) != strippedComp.end()) {
       std::map<int32_t, std::pair<int64_t, int64_t>> boxInside; // label -> (inside, voxels)
-      for (int64_t v = 0; v < nVox; ++v) {
-        const int32_t c = img.comp[size_t(v)];
-        if (c < 0 || !strippedComp[size_t(c)]) continue;
-        auto& bi = boxInside[img.comps[size_t(c)].label];
-        ++bi.second;
-        if (owner[size_t(v)] != std::numeric_limits<int32_t>::max()) ++bi.first;
+      for (size_t c = 0; c < nComps; ++c) {
+        if (!strippedComp[c]) continue;
+        auto& bi = boxInside[img.comps[c].label];
+        bi.first += coveredComp[c];
+        bi.second += img.comps[c].voxels;
       }
       for (size_t c = 0; c < img.comps.size(); ++c) {
         if (!strippedComp[c]) continue;
@@ -235,16 +218,13 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   std::map<int32_t, LabelCertificate> byLabel;
   std::map<int32_t, int64_t> covered; // voxel centres inside the mesh, per image label
   std::map<int32_t, int64_t> agree;
-  for (int64_t v = 0; v < nVox; ++v) {
-    const int32_t L = labels.data[static_cast<size_t>(v)];
+  for (size_t c = 0; c < nComps; ++c) {
+    const int32_t L = img.comps[c].label;
     auto& lc = byLabel[L];
-    if (strippedComp[size_t(img.comp[size_t(v)])]) continue; // counted in strippedVoxels
-    ++lc.voxels;
-    const int32_t o = owner[static_cast<size_t>(v)];
-    if (o != std::numeric_limits<int32_t>::max()) {
-      ++covered[L];
-      if (mesh.materials[static_cast<size_t>(o)] == L) ++agree[L];
-    }
+    if (strippedComp[c]) continue; // counted in strippedVoxels
+    lc.voxels += img.comps[c].voxels;
+    covered[L] += coveredComp[c];
+    agree[L] += agreeComp[c];
   }
   for (int64_t t = 0; t < nTets; ++t) {
     auto& lc = byLabel[mesh.materials[static_cast<size_t>(t)]];
@@ -372,10 +352,10 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     if (cc >= 0 && lostComp[size_t(cc)]) f |= 8;
     res.flags[size_t(t)] = f;
   }
-  for (int64_t v = 0; v < nVox; ++v) {
-    const int32_t o = owner[static_cast<size_t>(v)];
-    if (o != std::numeric_limits<int32_t>::max() && lostComp[size_t(img.comp[size_t(v)])]) res.flags[size_t(o)] |= 8;
-  }
+  if (std::find(lostComp.begin(), lostComp.end(), 1) != lostComp.end())
+    owners.forEachOwned([&](int, int64_t v, int32_t t) {
+      if (lostComp[size_t(img.comp[size_t(v)])]) std::atomic_ref<int32_t>(res.flags[size_t(t)]).fetch_or(8);
+    });
 
   // --- contacts ---------------------------------------------------------------------------
   for (const auto& [k, e] : meshContacts) {
