@@ -93,7 +93,7 @@ public:
     int64_t finished = 0;
     if (improveOn) {
       improved = improveMesh(r.mesh, ip, ctx.progress());
-      if (repairOn) finished = finishLabels(r.mesh, *mats, res, ctx.progress());
+      if (repairOn) finished = finishLabels(r.mesh, *mats, res, ctx.progress(), !improved.tetsChanged);
       const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats->labels());
       for (size_t i = 0; i < r.materials.size(); ++i) {
         r.materials[i].tets = now[i].tets;

@@ -132,15 +132,20 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
     out.correction = correctVolumes(r.mesh, mats.labels(), targets, box, p.correction, progress, &faceNeighbours);
     refresh();
   }
+  out.faceNeighbours = std::move(faceNeighbours);
   return out;
 }
 
-int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, const CleavePipelineResult& r, Progress& progress) {
+int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress,
+                     bool tetsAsCleaved) {
+  std::vector<int32_t> nb;
+  if (tetsAsCleaved && r.faceNeighbours.size() == 4 * mesh.numTets()) nb.swap(r.faceNeighbours);
+  std::vector<int32_t>().swap(r.faceNeighbours);
   if (!r.image) return 0; // the repair found nothing to do
   LabelRepairParams fp;
   fp.contacts = fp.points = fp.connect = fp.edges = false;
   fp.fragments = true;
-  return repairLabels(mesh, materials, fp, progress, r.image.get()).fragments;
+  return repairLabels(mesh, materials, fp, progress, r.image.get(), nullptr, &nb).fragments;
 }
 
 void writeCleavePipelineReport(const CleavePipelineResult& r, const CleavePipelineParams& p,

@@ -54,12 +54,18 @@ struct CleavePipelineResult {
   // The image's components and contacts (of materials.dominantLabels()), computed once for the
   // repair and the stripping; finishLabels uses it again.
   std::shared_ptr<const LabelImageTopology> image;
+  // The mesh's face neighbours (tetFaceNeighbours) as the last step that needed them left them
+  // (empty when none did): valid while the tets stay as they are (vertex moves leave them so).
+  std::vector<int32_t> faceNeighbours;
 };
 
 // After steps that move vertices or change tets (the improvement): pieces that became fragments (a
 // tet's centroid moved off its label's voxels) are dissolved as the repair's last step does.
-// Returns the pieces relabelled.
-int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, const CleavePipelineResult& r, Progress& progress);
+// Returns the pieces relabelled. tetsAsCleaved: the mesh's tets are those cleavePipeline returned
+// (only vertices moved since), so its face neighbours in r are used; otherwise they are computed
+// again. Frees r.faceNeighbours either way.
+int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress,
+                     bool tetsAsCleaved);
 
 CleavePipelineResult cleavePipeline(const BackgroundMesh& background, const MaterialSet& materials,
                                     const CleavePipelineParams& params, Progress& progress);

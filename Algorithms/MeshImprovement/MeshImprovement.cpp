@@ -66,6 +66,7 @@ std::vector<int32_t>& Improver::mutableStar(int32_t v) {
 }
 
 void Improver::killTet(int32_t t) {
+  st_.tetsChanged = true;
   alive_[size_t(t)] = 0;
   for (int32_t v : m_.tets[size_t(t)]) {
     auto& s = mutableStar(v);
@@ -74,6 +75,7 @@ void Improver::killTet(int32_t t) {
 }
 
 int32_t Improver::addTet(const Tet& q, int32_t material, int32_t origin) {
+  st_.tetsChanged = true;
   const int32_t t = int32_t(m_.tets.size());
   m_.tets.push_back(q);
   m_.materials.push_back(material);

@@ -118,6 +118,9 @@ struct ImproveStats {
   int64_t boundaryPeels = 0;   // "last resort": tets peeled off a curved boundary
   int64_t lastResortMoves = 0; // "last resort": moves of otherwise constrained vertices
   int passes = 0;
+  // A tet was added or removed: the tets are no longer those given, in their order (with none, only
+  // vertices moved, and unreferenced vertices may have been dropped).
+  bool tetsChanged = false;
   std::vector<ImproveMaterial> materials; // ascending label
   std::vector<ImproveTet> unfixed;        // the worst remaining (at most 20), worst first
   int64_t unfixedCount = 0;               // all tets still outside [min_angle, max_angle]
