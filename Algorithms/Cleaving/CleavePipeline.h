@@ -61,9 +61,9 @@ struct CleavePipelineResult {
 
 // After steps that move vertices or change tets (the improvement): pieces that became fragments (a
 // tet's centroid moved off its label's voxels) are dissolved as the repair's last step does.
-// Returns the pieces relabelled. tetsAsCleaved: the mesh's tets are those cleavePipeline returned
-// (only vertices moved since), so its face neighbours in r are used; otherwise they are computed
-// again. Frees r.faceNeighbours either way.
+// Returns the pieces relabelled. tetsAsCleaved: r.faceNeighbours are the mesh's (the tets are those
+// cleavePipeline returned, only vertices moved since, or improveMesh carried them), and are used
+// when not empty; otherwise they are computed again. Frees r.faceNeighbours either way.
 int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress,
                      bool tetsAsCleaved);
 

@@ -70,7 +70,8 @@ bool samePermutationParity(const Tet& q, int32_t a, int32_t b, int32_t c, int32_
 class Improver {
 public:
   Improver(TetMesh& m, const ImproveParams& p, Progress& progress);
-  ImproveStats run();
+  // nb: the mesh's face neighbours, carried through run() (improveMesh).
+  ImproveStats run(std::vector<int32_t>* nb = nullptr);
 
   // ---- the operations (LocalMoves.cpp / LocalFlips.cpp); each returns whether it changed the
   // mesh and appends the tets it created or reshaped to `touched` ----
@@ -139,7 +140,11 @@ private:
   bool improveTet(int32_t t, std::vector<int32_t>& touched);
   void scanAll(double& mn, double& mx, int64_t& below, int64_t& above, std::vector<int32_t>* bad) const;
   std::vector<double> labelVolumes() const;
-  void compact();
+  // Dead tets and unreferenced vertices out; nb (when given) follows the tets.
+  void compact(std::vector<int32_t>* nb);
+  // nb of the tets before compact() (newIndex: old tet -> its index after, -1 when dead) for the
+  // compacted mesh.
+  void carryFaceNeighbours(std::vector<int32_t>& nb, const std::vector<int32_t>& newIndex) const;
 };
 
 } // namespace tetflow::improve_detail

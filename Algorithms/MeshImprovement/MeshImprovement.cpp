@@ -254,14 +254,17 @@ bool Improver::improveTet(int32_t t, std::vector<int32_t>& touched) {
   return changed;
 }
 
-void Improver::compact() {
+void Improver::compact(std::vector<int32_t>* nb) {
   // Dead tets out, unreferenced vertices out (collapsed ones), fields carried along.
   const size_t nt = m_.tets.size(), np = m_.points.size();
   std::vector<int32_t> remap(np, -1);
   size_t w = 0;
   std::vector<int32_t> keptOrigin;
+  std::vector<int32_t> newIndex;
+  if (nb) newIndex.assign(nt, -1);
   for (size_t t = 0; t < nt; ++t) {
     if (!alive_[t]) continue;
+    if (nb) newIndex[t] = int32_t(w);
     m_.tets[w] = m_.tets[t];
     m_.materials[w] = m_.materials[t];
     keptOrigin.push_back(origin_[t]);
@@ -305,9 +308,54 @@ void Improver::compact() {
       for (size_t k = 0; k < c; ++k) vals[t * c + k] = f.values[size_t(keptOrigin[t]) * c + k];
     f.values.swap(vals);
   }
+  if (nb) carryFaceNeighbours(*nb, newIndex);
 }
 
-ImproveStats Improver::run() {
+void Improver::carryFaceNeighbours(std::vector<int32_t>& nb, const std::vector<int32_t>& newIndex) const {
+  // A kept input tet keeps its vertices in their order, so a face it shares with another kept tet
+  // is still theirs. Open: the faces of the tets made here, and the kept tets' faces whose
+  // neighbour went or that had none (a new tet may cover them); matched by their vertices. In
+  // place: a kept tet's new index is never above its old one.
+  struct Open {
+    std::array<int32_t, 3> v;
+    int32_t tf; // 4 * tet + face, after compact()
+    bool operator<(const Open& o) const { return v != o.v ? v < o.v : tf < o.tf; }
+  };
+  std::vector<Open> open;
+  auto add = [&](int32_t u, int f) {
+    const Tet& q = m_.tets[size_t(u)];
+    std::array<int32_t, 3> v{q[size_t(kTetFaceVertices[f][0])], q[size_t(kTetFaceVertices[f][1])],
+                             q[size_t(kTetFaceVertices[f][2])]};
+    std::sort(v.begin(), v.end());
+    open.push_back({v, 4 * u + f});
+  };
+  for (size_t t = 0; t < nt0_; ++t) {
+    const int32_t u = newIndex[t];
+    if (u < 0) continue;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t o = nb[4 * t + size_t(f)];
+      const int32_t to = o >= 0 ? newIndex[size_t(o)] : -1;
+      nb[4 * size_t(u) + size_t(f)] = to;
+      if (to < 0) add(u, f);
+    }
+  }
+  nb.resize(4 * m_.tets.size());
+  for (size_t t = nt0_; t < newIndex.size(); ++t)
+    if (newIndex[t] >= 0)
+      for (int f = 0; f < 4; ++f) add(newIndex[t], f);
+  std::sort(open.begin(), open.end());
+  for (size_t i = 0; i < open.size();) {
+    size_t j = i + 1;
+    while (j < open.size() && open[j].v == open[i].v) ++j;
+    for (size_t k = i; k < j; ++k)
+      nb[size_t(open[k].tf)] = j - i == 1 ? kNoNeighbour
+                               : j - i == 2 ? open[i + (k == i ? 1 : 0)].tf / 4
+                                            : kCrowdedFace;
+    i = j;
+  }
+}
+
+ImproveStats Improver::run(std::vector<int32_t>* nb) {
   if (!(p_.min_angle > 0 && p_.min_angle < 60))
     throw InputError("mesh improvement: min_angle must be in (0, 60) degrees");
   if (!(p_.max_angle > 90 && p_.max_angle < 180))
@@ -320,6 +368,11 @@ ImproveStats Improver::run() {
   progress_.beginStage("improve");
   nv0_ = m_.points.size();
   nt0_ = m_.tets.size();
+  if (nb && nb->size() != 4 * nt0_) {
+    std::vector<int32_t>().swap(*nb);
+    nb = nullptr;
+  }
+  if (nb && nb->empty()) nb = nullptr;
   st_.tetsBefore = int64_t(nt0_);
   st_.verticesBefore = int64_t(nv0_);
   alive_.assign(nt0_, 1);
@@ -405,7 +458,7 @@ ImproveStats Improver::run() {
       }
       lastResort_ = false;
     }
-    compact();
+    compact(nb);
     alive_.assign(m_.tets.size(), 1);
   }
   std::vector<int32_t> left;
@@ -444,9 +497,10 @@ ImproveStats Improver::run() {
 
 } // namespace improve_detail
 
-ImproveStats improveMesh(TetMesh& mesh, const ImproveParams& params, Progress& progress) {
+ImproveStats improveMesh(TetMesh& mesh, const ImproveParams& params, Progress& progress,
+                         std::vector<int32_t>* faceNeighbours) {
   improve_detail::Improver im(mesh, params, progress);
-  return im.run();
+  return im.run(faceNeighbours);
 }
 
 void writeImproveReport(const ImproveStats& s, const ImproveParams& p, Report& rep) {

@@ -128,8 +128,12 @@ struct ImproveStats {
 };
 
 // Improves `mesh` in place (it must be valid: positive tets, conforming). Throws InputError for
-// parameters out of range (naming them) and Cancelled when cancelled.
-ImproveStats improveMesh(TetMesh& mesh, const ImproveParams& params, Progress& progress);
+// parameters out of range (naming them) and Cancelled when cancelled. faceNeighbours (optional):
+// the mesh's face neighbours (tetFaceNeighbours) on entry, carried to the improved mesh (what
+// tetFaceNeighbours gives on it: the tets the improvement kept keep theirs, the faces of the tets
+// it made or uncovered are matched again); left empty when empty or not of the mesh's size.
+ImproveStats improveMesh(TetMesh& mesh, const ImproveParams& params, Progress& progress,
+                         std::vector<int32_t>* faceNeighbours = nullptr);
 
 // Score of a tet (see above) for the given targets.
 double improveScore(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, double minAngle, double maxAngle);

@@ -312,8 +312,8 @@ Row runTetFlow(const InputSpec& spec) {
   pp.correction.min_angle = ip.min_angle; // as CleaveMesh: the improvement's bounds
   pp.correction.max_angle = ip.max_angle;
   CleavePipelineResult res = cleavePipeline(bg, *in.mats, pp, np);
-  const ImproveStats improved = improveMesh(res.cleaved.mesh, ip, np);
-  finishLabels(res.cleaved.mesh, *in.mats, res, np, !improved.tetsChanged);
+  improveMesh(res.cleaved.mesh, ip, np, &res.faceNeighbours);
+  finishLabels(res.cleaved.mesh, *in.mats, res, np, true);
   r.seconds = now() - t0;
   stopMeasuring(r);
   judge(res.cleaved.mesh, in.labels, r);
