@@ -157,40 +157,6 @@ void numberSimplices(int64_t n, size_t nP, Verts verts, std::vector<std::array<i
   }
   idCancel.rethrow();
 }
-// The tets (of n, vertices by `verts(t)`) around each vertex for which keep(v) holds, ascending:
-// list[start[v] .. start[v + 1]). Counted and filled on both threads, then each list sorted.
-template <class Verts, class Keep>
-void tetsAround(int64_t n, size_t nP, Verts verts, Keep keep, std::vector<int64_t>& start, std::vector<int32_t>& list,
-                Progress& progress) {
-  start.assign(nP + 1, 0);
-  LoopCancel countCancel(progress);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < n; ++t) {
-    if (countCancel.skip(t)) continue;
-    for (int32_t v : verts(t))
-      if (keep(v)) std::atomic_ref<int64_t>(start[size_t(v) + 1]).fetch_add(1, std::memory_order_relaxed);
-  }
-  countCancel.rethrow();
-  for (size_t v = 0; v < nP; ++v) start[v + 1] += start[v];
-  list.resize(static_cast<size_t>(start[nP]));
-  {
-    std::vector<int64_t> fill(start.begin(), start.end() - 1);
-    LoopCancel fillCancel(progress);
-#pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < n; ++t) {
-      if (fillCancel.skip(t)) continue;
-      for (int32_t v : verts(t))
-        if (keep(v))
-          list[size_t(std::atomic_ref<int64_t>(fill[size_t(v)]).fetch_add(1, std::memory_order_relaxed))] =
-              static_cast<int32_t>(t);
-    }
-    fillCancel.rethrow();
-  }
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v)
-    std::sort(list.begin() + start[size_t(v)], list.begin() + start[size_t(v) + 1]);
-  progress.checkCancel();
-}
 } // namespace
 
 void Cleaver::buildInterfaces() {
@@ -233,7 +199,7 @@ void Cleaver::buildInterfaces() {
       },
       tetFace_, faceV_, ftStart_, ftList_, progress_);
 
-  tetsAround(
+  tetsAroundVertices(
       ni, m_.points.size(), [&](int64_t t) -> const TetMesh::Tet& { return tv(static_cast<int32_t>(t)); },
       [](int32_t) { return true; }, vtStart_, vtList_, progress_);
   progress_.checkCancel();
@@ -291,7 +257,7 @@ void Cleaver::buildWarpStars() {
   const int64_t nv = static_cast<int64_t>(m_.points.size());
   const int64_t nt = static_cast<int64_t>(m_.tets.size());
   auto warpable = [&](int32_t v) { return vtStart_[v + 1] > vtStart_[v]; };
-  tetsAround(
+  tetsAroundVertices(
       nt, static_cast<size_t>(nv), [&](int64_t t) -> const TetMesh::Tet& { return m_.tets[static_cast<size_t>(t)]; },
       warpable, allStart_, allList_, progress_);
 }

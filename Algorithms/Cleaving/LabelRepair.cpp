@@ -109,10 +109,6 @@ Choice choose(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed
   return c;
 }
 
-// Per root of `sets`: 1 when the piece is a primary piece of an image component: the one with the
-// most voting volume (ties to the smaller root), or with `keepCores`, the max(1, cores) pieces
-// with the most (a component may be in as many pieces as it has cores). `pairs`, when given,
-// receives the (image component << 32 | root) of every primary piece.
 // Adds to the entry of a key in a node-based map, keeping the last entry at hand: the tets of a
 // piece come in long runs, so most additions skip the lookup. The same sums, added in the same
 // order, as looking every key up.
@@ -129,17 +125,29 @@ struct RunningSums {
   }
 };
 
-std::vector<uint8_t> primaryPieces(const TetMesh& mesh, const std::vector<double>& size, DisjointSets& sets,
-                                   const std::vector<int32_t>& vote, const LabelImageTopology* keepCores = nullptr,
-                                   std::unordered_set<uint64_t>* pairs = nullptr) {
-  std::unordered_map<uint64_t, double> votes; // (image comp, root) -> volume
+// The voting volume of every (piece, image component): key root << 32 | component.
+std::unordered_map<uint64_t, double> pieceVoteSums(const TetMesh& mesh, const std::vector<double>& size,
+                                                   DisjointSets& sets, const std::vector<int32_t>& vote) {
+  std::unordered_map<uint64_t, double> votes;
   RunningSums sums{votes};
   for (size_t t = 0; t < mesh.numTets(); ++t)
     if (vote[t] >= 0)
-      sums.add((uint64_t(uint32_t(vote[t])) << 32) | uint32_t(sets.find(int32_t(t))), size[t]);
-  std::vector<std::pair<uint64_t, double>> sorted(votes.begin(), votes.end());
+      sums.add((uint64_t(uint32_t(sets.find(int32_t(t)))) << 32) | uint32_t(vote[t]), size[t]);
+  return votes;
+}
+
+// Per root (from the sums of pieceVoteSums): 1 when the piece is a primary piece of an image
+// component: the one with the most voting volume (ties to the smaller root), or with `keepCores`,
+// the max(1, cores) pieces with the most (a component may be in as many pieces as it has cores). `pairs`, when given,
+// receives the (image component << 32 | root) of every primary piece.
+std::vector<uint8_t> primaryPiecesOf(const std::unordered_map<uint64_t, double>& pieceVotes, size_t nTets,
+                                     const LabelImageTopology* keepCores = nullptr,
+                                     std::unordered_set<uint64_t>* pairs = nullptr) {
+  std::vector<std::pair<uint64_t, double>> sorted; // (image comp << 32 | root, volume)
+  sorted.reserve(pieceVotes.size());
+  for (const auto& [k, v] : pieceVotes) sorted.push_back({(k << 32) | (k >> 32), v});
   std::sort(sorted.begin(), sorted.end());
-  std::vector<uint8_t> primary(mesh.numTets(), 0);
+  std::vector<uint8_t> primary(nTets, 0);
   for (size_t i = 0; i < sorted.size();) {
     size_t j = i;
     while (j < sorted.size() && (sorted[j].first >> 32) == (sorted[i].first >> 32)) ++j;
@@ -155,6 +163,12 @@ std::vector<uint8_t> primaryPieces(const TetMesh& mesh, const std::vector<double
     i = j;
   }
   return primary;
+}
+
+// The same, one primary piece per component, from the tets' votes.
+std::vector<uint8_t> primaryPieces(const TetMesh& mesh, const std::vector<double>& size, DisjointSets& sets,
+                                   const std::vector<int32_t>& vote) {
+  return primaryPiecesOf(pieceVoteSums(mesh, size, sets, vote), mesh.numTets());
 }
 
 void countForbidden(const TetMesh& mesh, const std::vector<int32_t>& nb, const Allowed& allowed, int64_t& faces,
@@ -790,17 +804,12 @@ void repairFragments(Steps& s) {
       progress.checkCancelEvery(t);
       volume[size_t(sets.find(int32_t(t)))] += size[size_t(t)];
     }
+    const std::unordered_map<uint64_t, double> pieceVotes = pieceVoteSums(mesh, size, sets, vote); // (root, comp)
     std::unordered_set<uint64_t> primaryOf; // (comp, root) pairs
-    const std::vector<uint8_t> primary = primaryPieces(mesh, size, sets, vote, &img, &primaryOf);
+    const std::vector<uint8_t> primary = primaryPiecesOf(pieceVotes, mesh.numTets(), &img, &primaryOf);
     progress.checkCancel();
     // The image component each piece votes for most (-1: none), and its size limit: fragment_voxels,
     // or kFragmentShare of that component (of its label's voxels when it votes for none).
-    std::unordered_map<uint64_t, double> pieceVotes; // (root, comp) -> volume
-    RunningSums sums{pieceVotes};
-    for (int64_t t = 0; t < n; ++t)
-      if (vote[size_t(t)] >= 0)
-        sums.add((uint64_t(uint32_t(sets.find(int32_t(t)))) << 32) | uint32_t(vote[size_t(t)]),
-                 size[size_t(t)]);
     std::vector<std::pair<uint64_t, double>> pv(pieceVotes.begin(), pieceVotes.end());
     std::sort(pv.begin(), pv.end());
     std::unordered_map<int32_t, std::pair<int32_t, double>> mainComp; // root -> (comp, votes)

@@ -296,26 +296,12 @@ double tetFaceArea(const TetMesh& m, size_t t, int f, Vec3* centre) {
 }
 
 VertexStars vertexStars(const TetMesh& mesh) {
-  // Counted and filled on both threads (atomic counters), then each star sorted: ascending, as a
-  // serial fill in tet order gives, whoever filled what.
-  const size_t nP = mesh.numPoints();
-  const int64_t nt = static_cast<int64_t>(mesh.numTets());
   VertexStars s;
-  s.offset.assign(nP + 1, 0);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < nt; ++t)
-    for (int32_t v : mesh.tets[size_t(t)])
-      std::atomic_ref<int64_t>(s.offset[size_t(v) + 1]).fetch_add(1, std::memory_order_relaxed);
-  for (size_t p = 0; p < nP; ++p) s.offset[p + 1] += s.offset[p];
-  s.tets.resize(static_cast<size_t>(s.offset[nP]));
-  std::vector<int64_t> pos(s.offset.begin(), s.offset.end() - 1);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < nt; ++t)
-    for (int32_t v : mesh.tets[size_t(t)])
-      s.tets[size_t(std::atomic_ref<int64_t>(pos[size_t(v)]).fetch_add(1, std::memory_order_relaxed))] = int32_t(t);
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p)
-    std::sort(s.tets.begin() + s.offset[size_t(p)], s.tets.begin() + s.offset[size_t(p) + 1]);
+  const NullProgress never;
+  tetsAroundVertices(
+      static_cast<int64_t>(mesh.numTets()), mesh.numPoints(),
+      [&](int64_t t) -> const TetMesh::Tet& { return mesh.tets[size_t(t)]; }, [](int32_t) { return true; }, s.offset,
+      s.tets, never);
   return s;
 }
 
