@@ -401,22 +401,20 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   // --- interfaces: non-manifold edges (sorted (edge, label, tet) records) ---------------------
   progress.beginStage("interfaces");
-  struct EdgeRec {
-    uint64_t edge;
-    int32_t label;
-    int32_t tet;
-    bool operator<(const EdgeRec& o) const {
-      return edge != o.edge ? edge < o.edge : (label != o.label ? label < o.label : tet < o.tet);
-    }
-  };
-  std::vector<EdgeRec> er;
+  // Each edge of a face between labels (or on the boundary) is recorded under its smaller vertex
+  // with (larger vertex, the face's tet's label, the tet): a counting sort by the smaller vertex
+  // (filled on every thread), each vertex's few records sorted, then the vertices in order, so
+  // edges come in ascending (smaller, larger) order as one sort of every record would give.
+  const size_t nP = mesh.numPoints();
   {
-    // Written on both threads straight into place: each thread counts the records of its share
-    // of the tets (a static schedule: the same shares in both loops), then writes them at its
-    // offset. The sort below orders the records completely, so the result does not depend on
-    // who wrote what.
-    const int threads = omp_get_max_threads();
-    std::vector<size_t> count(static_cast<size_t>(threads) + 1, 0);
+    struct EdgeRec {
+      int32_t b;
+      int32_t label;
+      int32_t tet;
+      bool operator<(const EdgeRec& o) const {
+        return b != o.b ? b < o.b : (label != o.label ? label < o.label : tet < o.tet);
+      }
+    };
     auto records = [&](int64_t t, auto&& emit) {
       const int32_t L = mesh.materials[size_t(t)];
       for (int f = 0; f < 4; ++f) {
@@ -424,55 +422,64 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
         if (o >= 0 && mesh.materials[size_t(o)] == L) continue;
         const auto& q = mesh.tets[size_t(t)];
         const int32_t v[3] = {q[kTetFaceVertices[f][0]], q[kTetFaceVertices[f][1]], q[kTetFaceVertices[f][2]]};
-        for (int e = 0; e < 3; ++e) {
-          const int32_t a = std::min(v[e], v[(e + 1) % 3]), b = std::max(v[e], v[(e + 1) % 3]);
-          emit(EdgeRec{(uint64_t(uint32_t(a)) << 32) | uint32_t(b), L, static_cast<int32_t>(t)});
-        }
+        for (int e = 0; e < 3; ++e)
+          emit(std::min(v[e], v[(e + 1) % 3]), EdgeRec{std::max(v[e], v[(e + 1) % 3]), L, static_cast<int32_t>(t)});
       }
     };
-#pragma omp parallel num_threads(threads)
+    std::vector<int64_t> start(nP + 1, 0);
+    LoopCancel countCancel(progress);
+#pragma omp parallel for schedule(static)
+    for (int64_t t = 0; t < nTets; ++t) {
+      if (countCancel.skip(t)) continue;
+      records(t, [&](int32_t a, const EdgeRec&) {
+        std::atomic_ref<int64_t>(start[size_t(a) + 1]).fetch_add(1, std::memory_order_relaxed);
+      });
+    }
+    countCancel.rethrow();
+    for (size_t v = 0; v < nP; ++v) start[v + 1] += start[v];
+    std::vector<EdgeRec> er(static_cast<size_t>(start[nP]));
     {
-      const size_t me = static_cast<size_t>(omp_get_thread_num());
-      size_t mine = 0;
-#pragma omp for schedule(static)
-      for (int64_t t = 0; t < nTets; ++t) records(t, [&](const EdgeRec&) { ++mine; });
-      count[me + 1] = mine;
-#pragma omp barrier
-#pragma omp single
-      {
-        for (size_t i = 0; i < static_cast<size_t>(threads); ++i) count[i + 1] += count[i];
-        er.resize(count.back());
+      std::vector<int64_t> fill(start.begin(), start.end() - 1);
+      LoopCancel fillCancel(progress);
+#pragma omp parallel for schedule(static)
+      for (int64_t t = 0; t < nTets; ++t) {
+        if (fillCancel.skip(t)) continue;
+        records(t, [&](int32_t a, const EdgeRec& r) {
+          er[size_t(std::atomic_ref<int64_t>(fill[size_t(a)]).fetch_add(1, std::memory_order_relaxed))] = r;
+        });
       }
-      size_t at = count[me];
-#pragma omp for schedule(static)
-      for (int64_t t = 0; t < nTets; ++t) records(t, [&](const EdgeRec& r) { er[at++] = r; });
+      fillCancel.rethrow();
     }
-    progress.checkCancel();
-  }
-  cancellableSort(er, progress);
-  uint64_t lastBadEdge = ~uint64_t(0);
-  for (size_t i = 0; i < er.size();) {
-    size_t j = i + 1;
-    while (j < er.size() && er[j].edge == er[i].edge && er[j].label == er[i].label) ++j;
-    if (j - i > 2) {
-      if (er[i].edge != lastBadEdge) {
-        ++res.nonmanifoldEdges;
-        lastBadEdge = er[i].edge;
-        if (res.nonmanifoldPlaces.size() < 20) {
-          const auto [a, b] = labelPairOf(er[i].edge);
-          res.nonmanifoldPlaces.push_back(0.5 * (mesh.points[size_t(a)] + mesh.points[size_t(b)]));
+    LoopCancel sortCancel(progress);
+#pragma omp parallel for schedule(dynamic, 4096)
+    for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v) {
+      if (sortCancel.skip(v)) continue;
+      std::sort(er.begin() + start[size_t(v)], er.begin() + start[size_t(v) + 1]);
+    }
+    sortCancel.rethrow();
+    for (size_t a = 0; a < nP; ++a) {
+      int32_t lastBad = -1;
+      const size_t end = size_t(start[a + 1]);
+      for (size_t i = size_t(start[a]); i < end;) {
+        size_t j = i + 1;
+        while (j < end && er[j].b == er[i].b && er[j].label == er[i].label) ++j;
+        if (j - i > 2) {
+          if (er[i].b != lastBad) {
+            ++res.nonmanifoldEdges;
+            lastBad = er[i].b;
+            if (res.nonmanifoldPlaces.size() < 20)
+              res.nonmanifoldPlaces.push_back(0.5 * (mesh.points[a] + mesh.points[size_t(er[i].b)]));
+          }
+          ++byLabel[er[i].label].nonmanifoldEdges;
+          for (size_t k = i; k < j; ++k) res.flags[size_t(er[k].tet)] |= 32;
         }
+        i = j;
       }
-      ++byLabel[er[i].label].nonmanifoldEdges;
-      for (size_t a = i; a < j; ++a) res.flags[size_t(er[a].tet)] |= 32;
     }
-    i = j;
   }
-  std::vector<EdgeRec>().swap(er);
   progress.checkCancel();
 
   // --- interfaces: non-manifold vertices (vertex stars) ------------------------------------
-  const size_t nP = mesh.numPoints();
   const VertexStars stars = vertexStars(mesh);
   progress.checkCancel();
   const std::vector<int64_t>& off = stars.offset;
@@ -484,6 +491,8 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   {
     auto& mine = badPerLabel[static_cast<size_t>(omp_get_thread_num())];
     std::vector<int32_t> parent;
+    std::vector<std::pair<int64_t, int64_t>> links;
+    std::vector<int32_t> labelsHere, labs, count;
 #pragma omp for schedule(dynamic, 1024)
     for (int64_t p = 0; p < static_cast<int64_t>(nP); ++p) {
       if (starCancel.skip(p)) continue;
@@ -494,13 +503,13 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       for (int64_t s = b + 1; s < e && !mixed; ++s) mixed = mesh.materials[size_t(star[size_t(s)])] != L0;
       if (!mixed) continue;
       const int64_t k = e - b;
-      // Local adjacency through the three faces at p of each star tet.
+      // Local adjacency through the three faces at p of each star tet (a star is ascending).
+      const auto first = star.begin() + b, last = star.begin() + e;
       auto local = [&](int32_t t) -> int64_t {
-        for (int64_t s = 0; s < k; ++s)
-          if (star[size_t(b + s)] == t) return s;
-        return -1;
+        const auto it = std::lower_bound(first, last, t);
+        return it != last && *it == t ? int64_t(it - first) : -1;
       };
-      std::vector<std::pair<int64_t, int64_t>> links;
+      links.clear();
       for (int64_t s = 0; s < k; ++s) {
         const int32_t t = star[size_t(b + s)];
         for (int f = 0; f < 4; ++f) {
@@ -512,8 +521,11 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
           }
         }
       }
-      std::map<int32_t, int> labelsHere;
-      for (int64_t s = 0; s < k; ++s) labelsHere[mesh.materials[size_t(star[size_t(b + s)])]] = 0;
+      labs.resize(size_t(k));
+      for (int64_t s = 0; s < k; ++s) labs[size_t(s)] = mesh.materials[size_t(star[size_t(b + s)])];
+      labelsHere.assign(labs.begin(), labs.end());
+      std::sort(labelsHere.begin(), labelsHere.end());
+      labelsHere.erase(std::unique(labelsHere.begin(), labelsHere.end()), labelsHere.end());
       auto groups = [&](auto inSet) {
         parent.resize(size_t(k));
         std::iota(parent.begin(), parent.end(), 0);
@@ -531,12 +543,13 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
           if (inSet(s) && find(int32_t(s)) == s) ++count;
         return count;
       };
-      for (auto& [L, unused] : labelsHere) {
-        (void)unused;
-        const int32_t lab = L;
-        auto isL = [&](int64_t s) { return mesh.materials[size_t(star[size_t(b + s)])] == lab; };
-        auto notL = [&](int64_t s) { return !isL(s); };
-        if (groups(isL) > 1 || groups(notL) > 1) {
+      // Groups of each label's tets; with two labels, the tets of neither are those of the other.
+      count.clear();
+      for (const int32_t lab : labelsHere) count.push_back(groups([&](int64_t s) { return labs[size_t(s)] == lab; }));
+      for (size_t l = 0; l < labelsHere.size(); ++l) {
+        const int32_t lab = labelsHere[l];
+        auto isL = [&](int64_t s) { return labs[size_t(s)] == lab; };
+        if (count[l] > 1 || (labelsHere.size() == 2 ? count[1 - l] > 1 : groups([&](int64_t s) { return !isL(s); }) > 1)) {
           badVertex[size_t(p)] = 1;
           ++mine[lab];
           for (int64_t s = 0; s < k; ++s)

@@ -15,6 +15,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include "Algorithms/Core/Errors.h"
 #include "Fixtures/VoxelComponents.h"
@@ -132,6 +133,106 @@ TEST(Certificate, ExactVoxelMeshesOfRandomVolumesMatchTheBruteForceRules) {
     // Flags only where a split component has extra pieces (2) or a non-manifold interface (32).
     for (int32_t f : r.flags) EXPECT_EQ(f & ~(2 | 32), 0);
   }
+}
+
+// Non-manifold interfaces by their definition, set by set: an edge of the faces between labels
+// (or on the boundary) that more than two such faces of one label's tets share; a vertex around
+// which one label's tets, or the other tets, fall into more than one group joined by faces at the
+// vertex (searched tet by tet). The counts per label and in all, and flag 32 on exactly the tets
+// of those edges' records and of those vertices' labels, on the voxel meshes of random volumes
+// (whose voxel edges and corners give both).
+TEST(Certificate, NonManifoldEdgesAndVerticesAreTheDefinitions) {
+  std::mt19937 rng(71);
+  int64_t edgesSeen = 0, verticesSeen = 0;
+  for (int c = 0; c < 12; ++c) {
+    const LabelVolume v = randomVolume(rng);
+    const TetMesh m = voxelMesh(v);
+    const CertificateResult r = certify(m, v);
+    NullProgress np;
+    const std::vector<int32_t> nb = tetFaceNeighbours(m, np);
+    std::vector<int32_t> flag(m.numTets(), 0);
+    std::map<int32_t, int64_t> edgesOf, verticesOf;
+    // Edges.
+    std::map<std::tuple<int32_t, int32_t, int32_t>, std::vector<int32_t>> rec; // (a, b, label) -> tets
+    for (size_t t = 0; t < m.numTets(); ++t)
+      for (int f = 0; f < 4; ++f) {
+        const int32_t o = nb[4 * t + size_t(f)];
+        if (o >= 0 && m.materials[size_t(o)] == m.materials[t]) continue;
+        for (int e = 0; e < 3; ++e) {
+          const int32_t x = m.tets[t][kTetFaceVertices[f][e]], y = m.tets[t][kTetFaceVertices[f][(e + 1) % 3]];
+          rec[{std::min(x, y), std::max(x, y), m.materials[t]}].push_back(int32_t(t));
+        }
+      }
+    std::set<std::pair<int32_t, int32_t>> badEdges;
+    for (const auto& [key, tets] : rec)
+      if (tets.size() > 2) {
+        badEdges.insert({std::get<0>(key), std::get<1>(key)});
+        ++edgesOf[std::get<2>(key)];
+        for (int32_t t : tets) flag[size_t(t)] = 32;
+      }
+    // Vertices.
+    std::vector<std::vector<int32_t>> starOf(m.numPoints());
+    for (size_t t = 0; t < m.numTets(); ++t)
+      for (int32_t p : m.tets[t]) starOf[size_t(p)].push_back(int32_t(t));
+    int64_t badVertices = 0;
+    for (size_t p = 0; p < m.numPoints(); ++p) {
+      const auto& st = starOf[p];
+      auto groupsOf = [&](auto member) {
+        std::set<int32_t> left;
+        for (int32_t t : st)
+          if (member(t)) left.insert(t);
+        int groups = 0;
+        while (!left.empty()) {
+          ++groups;
+          std::deque<int32_t> q{*left.begin()};
+          left.erase(left.begin());
+          while (!q.empty()) {
+            const int32_t t = q.front();
+            q.pop_front();
+            for (int f = 0; f < 4; ++f) {
+              if (m.tets[size_t(t)][f] == int32_t(p)) continue; // a face at p omits another vertex
+              const int32_t o = nb[4 * size_t(t) + size_t(f)];
+              if (o >= 0 && left.erase(o)) q.push_back(o);
+            }
+          }
+        }
+        return groups;
+      };
+      std::set<int32_t> labels;
+      for (int32_t t : st) labels.insert(m.materials[size_t(t)]);
+      if (labels.size() < 2) continue;
+      bool bad = false;
+      for (int32_t L : labels)
+        if (groupsOf([&](int32_t t) { return m.materials[size_t(t)] == L; }) > 1 ||
+            groupsOf([&](int32_t t) { return m.materials[size_t(t)] != L; }) > 1) {
+          bad = true;
+          ++verticesOf[L];
+          for (int32_t t : st)
+            if (m.materials[size_t(t)] == L) flag[size_t(t)] = 32;
+        }
+      badVertices += bad ? 1 : 0;
+    }
+    SCOPED_TRACE("case " + std::to_string(c));
+    EXPECT_EQ(r.nonmanifoldEdges, int64_t(badEdges.size()));
+    EXPECT_EQ(r.nonmanifoldVertices, badVertices);
+    for (const auto& lc : r.labels) {
+      EXPECT_EQ(lc.nonmanifoldEdges, edgesOf.count(lc.label) ? edgesOf[lc.label] : 0) << "label " << lc.label;
+      EXPECT_EQ(lc.nonmanifoldVertices, verticesOf.count(lc.label) ? verticesOf[lc.label] : 0) << "label " << lc.label;
+    }
+    for (size_t t = 0; t < m.numTets(); ++t) ASSERT_EQ(r.flags[t] & 32, flag[t]) << "tet " << t;
+    // The places: the first (up to 20) bad edges' midpoints, in ascending order of their ends.
+    size_t i = 0;
+    for (const auto& [a, b] : badEdges) {
+      if (i == 20 || i >= r.nonmanifoldPlaces.size()) break;
+      const Vec3 mid = 0.5 * (m.points[size_t(a)] + m.points[size_t(b)]);
+      for (int x = 0; x < 3; ++x) EXPECT_DOUBLE_EQ(r.nonmanifoldPlaces[i][x], mid[x]);
+      ++i;
+    }
+    edgesSeen += int64_t(badEdges.size());
+    verticesSeen += badVertices;
+  }
+  EXPECT_GT(edgesSeen, 20);
+  EXPECT_GT(verticesSeen, 20);
 }
 
 TEST(Certificate, ContactsAreFaceContactsWithTheirArea) {
