@@ -95,4 +95,18 @@ void cancellableSort(std::vector<Key>& keys, const Progress& progress) {
   sortCancel.rethrow();
 }
 
+// Sorts each bucket [first + start[b], first + start[b + 1]) of a counting sort (start: nb + 1
+// offsets) on every thread; throws Cancelled when progress asks.
+template <class It>
+void sortEachBucket(It first, const std::vector<int64_t>& start, const Progress& progress) {
+  const int64_t buckets = static_cast<int64_t>(start.size()) - 1;
+  LoopCancel cancel(progress);
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t b = 0; b < buckets; ++b) {
+    if (cancel.skip(b)) continue;
+    std::sort(first + start[size_t(b)], first + start[size_t(b) + 1]);
+  }
+  cancel.rethrow();
+}
+
 } // namespace tetflow

@@ -450,13 +450,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
       }
       fillCancel.rethrow();
     }
-    LoopCancel sortCancel(progress);
-#pragma omp parallel for schedule(dynamic, 4096)
-    for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v) {
-      if (sortCancel.skip(v)) continue;
-      std::sort(er.begin() + start[size_t(v)], er.begin() + start[size_t(v) + 1]);
-    }
-    sortCancel.rethrow();
+    sortEachBucket(er.begin(), start, progress);
     for (size_t a = 0; a < nP; ++a) {
       int32_t lastBad = -1;
       const size_t end = size_t(start[a + 1]);

@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Progress.h"
 #include "Algorithms/Core/TetMesh.h"
 #include "Algorithms/Core/Volume.h"
@@ -70,10 +71,7 @@ void tetsAroundVertices(int64_t n, size_t nP, Verts verts, Keep keep, std::vecto
     }
     fillCancel.rethrow();
   }
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v)
-    std::sort(list.begin() + start[size_t(v)], list.begin() + start[size_t(v) + 1]);
-  if (progress.cancelRequested()) throw Cancelled();
+  sortEachBucket(list.begin(), start, progress);
 }
 
 // Union-find whose root is always the smallest index of its set (deterministic numbering).

@@ -178,15 +178,7 @@ void analyzeFaces(const TetMesh& mesh, QualityResult& r, Progress& progress) {
       },
       progress);
   std::vector<std::vector<int64_t>>().swap(at);
-  {
-    LoopCancel cancel(progress);
-#pragma omp parallel for schedule(dynamic, 4096)
-    for (int64_t v = 0; v < static_cast<int64_t>(nP); ++v) {
-      if (cancel.skip(v)) continue;
-      std::sort(keys.get() + start[size_t(v)], keys.get() + start[size_t(v) + 1]);
-    }
-    cancel.rethrow();
-  }
+  sortEachBucket(keys.get(), start, progress);
   progress.report(0.5);
 
   // Scan groups of equal faces (keys equal up to the parity bit), vertex by vertex.
