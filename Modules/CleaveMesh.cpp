@@ -94,7 +94,7 @@ public:
     if (improveOn) {
       // The face neighbours the pipeline left follow the improvement to the label finish.
       improved = improveMesh(r.mesh, ip, ctx.progress(), repairOn ? &res.faceNeighbours : nullptr);
-      if (repairOn) finished = finishLabels(r.mesh, *mats, res, ctx.progress(), true);
+      if (repairOn) finished = finishLabels(r.mesh, *mats, res, ctx.progress());
       const std::vector<MaterialTally> now = tallyMaterials(r.mesh, mats->labels());
       for (size_t i = 0; i < r.materials.size(); ++i) {
         r.materials[i].tets = now[i].tets;

@@ -136,10 +136,9 @@ CleavePipelineResult cleavePipeline(const BackgroundMesh& bg, const MaterialSet&
   return out;
 }
 
-int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress,
-                     bool tetsAsCleaved) {
+int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress) {
   std::vector<int32_t> nb;
-  if (tetsAsCleaved && r.faceNeighbours.size() == 4 * mesh.numTets()) nb.swap(r.faceNeighbours);
+  if (r.faceNeighbours.size() == 4 * mesh.numTets()) nb.swap(r.faceNeighbours);
   std::vector<int32_t>().swap(r.faceNeighbours);
   if (!r.image) return 0; // the repair found nothing to do
   LabelRepairParams fp;

@@ -61,11 +61,10 @@ struct CleavePipelineResult {
 
 // After steps that move vertices or change tets (the improvement): pieces that became fragments (a
 // tet's centroid moved off its label's voxels) are dissolved as the repair's last step does.
-// Returns the pieces relabelled. tetsAsCleaved: r.faceNeighbours are the mesh's (the tets are those
-// cleavePipeline returned, only vertices moved since, or improveMesh carried them), and are used
-// when not empty; otherwise they are computed again. Frees r.faceNeighbours either way.
-int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress,
-                     bool tetsAsCleaved);
+// Returns the pieces relabelled. r.faceNeighbours must be the mesh's or empty: a caller that changed
+// the tets since cleavePipeline carries them (improveMesh does) or clears them. Used when not empty,
+// computed otherwise; freed either way.
+int64_t finishLabels(TetMesh& mesh, const MaterialSet& materials, CleavePipelineResult& r, Progress& progress);
 
 CleavePipelineResult cleavePipeline(const BackgroundMesh& background, const MaterialSet& materials,
                                     const CleavePipelineParams& params, Progress& progress);

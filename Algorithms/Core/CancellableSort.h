@@ -11,6 +11,7 @@
 // Extra memory: one copy of the keys (as a parallel merge sort needs too). A cancelled sort
 // leaves `keys` in no particular order.
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -107,6 +108,41 @@ void sortEachBucket(It first, const std::vector<int64_t>& start, const Progress&
     std::sort(first + start[size_t(b)], first + start[size_t(b) + 1]);
   }
   cancel.rethrow();
+}
+
+// A counting sort into buckets: records(i, emit) calls emit(bucket, value) for each record of item
+// i (the same records every time it is called); list[start[b] .. start[b + 1]) then holds bucket
+// b's values, sorted (T's operator<, a total order, so the result does not depend on which thread
+// filed what). Counted and filled on every thread (atomic counters); throws Cancelled when
+// progress asks.
+template <class T, class Records>
+void fileByBucket(int64_t n, size_t buckets, Records records, std::vector<int64_t>& start, std::vector<T>& list,
+                  const Progress& progress) {
+  start.assign(buckets + 1, 0);
+  LoopCancel countCancel(progress);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    if (countCancel.skip(i)) continue;
+    records(i, [&](int64_t b, const T&) {
+      std::atomic_ref<int64_t>(start[size_t(b) + 1]).fetch_add(1, std::memory_order_relaxed);
+    });
+  }
+  countCancel.rethrow();
+  for (size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
+  list.resize(static_cast<size_t>(start[buckets]));
+  {
+    std::vector<int64_t> fill(start.begin(), start.end() - 1);
+    LoopCancel fillCancel(progress);
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < n; ++i) {
+      if (fillCancel.skip(i)) continue;
+      records(i, [&](int64_t b, const T& value) {
+        list[size_t(std::atomic_ref<int64_t>(fill[size_t(b)]).fetch_add(1, std::memory_order_relaxed))] = value;
+      });
+    }
+    fillCancel.rethrow();
+  }
+  sortEachBucket(list.begin(), start, progress);
 }
 
 } // namespace tetflow

@@ -401,9 +401,8 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   // --- interfaces: non-manifold edges (sorted (edge, label, tet) records) ---------------------
   progress.beginStage("interfaces");
-  // Each edge of a face between labels (or on the boundary) is recorded under its smaller vertex
-  // with (larger vertex, the face's tet's label, the tet): a counting sort by the smaller vertex
-  // (filled on every thread), each vertex's few records sorted, then the vertices in order, so
+  // Each edge of a face between labels (or on the boundary) is filed under its smaller vertex with
+  // (larger vertex, the face's tet's label, the tet) (fileByBucket), then the vertices in order, so
   // edges come in ascending (smaller, larger) order as one sort of every record would give.
   const size_t nP = mesh.numPoints();
   {
@@ -426,31 +425,9 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
           emit(std::min(v[e], v[(e + 1) % 3]), EdgeRec{std::max(v[e], v[(e + 1) % 3]), L, static_cast<int32_t>(t)});
       }
     };
-    std::vector<int64_t> start(nP + 1, 0);
-    LoopCancel countCancel(progress);
-#pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < nTets; ++t) {
-      if (countCancel.skip(t)) continue;
-      records(t, [&](int32_t a, const EdgeRec&) {
-        std::atomic_ref<int64_t>(start[size_t(a) + 1]).fetch_add(1, std::memory_order_relaxed);
-      });
-    }
-    countCancel.rethrow();
-    for (size_t v = 0; v < nP; ++v) start[v + 1] += start[v];
-    std::vector<EdgeRec> er(static_cast<size_t>(start[nP]));
-    {
-      std::vector<int64_t> fill(start.begin(), start.end() - 1);
-      LoopCancel fillCancel(progress);
-#pragma omp parallel for schedule(static)
-      for (int64_t t = 0; t < nTets; ++t) {
-        if (fillCancel.skip(t)) continue;
-        records(t, [&](int32_t a, const EdgeRec& r) {
-          er[size_t(std::atomic_ref<int64_t>(fill[size_t(a)]).fetch_add(1, std::memory_order_relaxed))] = r;
-        });
-      }
-      fillCancel.rethrow();
-    }
-    sortEachBucket(er.begin(), start, progress);
+    std::vector<int64_t> start;
+    std::vector<EdgeRec> er;
+    fileByBucket<EdgeRec>(nTets, nP, records, start, er, progress);
     for (size_t a = 0; a < nP; ++a) {
       int32_t lastBad = -1;
       const size_t end = size_t(start[a + 1]);

@@ -41,37 +41,18 @@ struct VertexStars {
 VertexStars vertexStars(const TetMesh& mesh);
 
 // The tets (of n, vertices by `verts(t)`, an array of four) around each of nP vertices for which
-// keep(v) holds, ascending: list[start[v] .. start[v + 1]). Counted and filled on every thread
-// (atomic counters), then each list sorted, so the result does not depend on who filled what.
-// Throws Cancelled when progress asks.
+// keep(v) holds, ascending: list[start[v] .. start[v + 1]) (fileByBucket). Throws Cancelled when
+// progress asks.
 template <class Verts, class Keep>
 void tetsAroundVertices(int64_t n, size_t nP, Verts verts, Keep keep, std::vector<int64_t>& start,
                         std::vector<int32_t>& list, const Progress& progress) {
-  start.assign(nP + 1, 0);
-  LoopCancel countCancel(progress);
-#pragma omp parallel for schedule(static)
-  for (int64_t t = 0; t < n; ++t) {
-    if (countCancel.skip(t)) continue;
-    for (int32_t v : verts(t))
-      if (keep(v)) std::atomic_ref<int64_t>(start[size_t(v) + 1]).fetch_add(1, std::memory_order_relaxed);
-  }
-  countCancel.rethrow();
-  for (size_t v = 0; v < nP; ++v) start[v + 1] += start[v];
-  list.resize(static_cast<size_t>(start[nP]));
-  {
-    std::vector<int64_t> fill(start.begin(), start.end() - 1);
-    LoopCancel fillCancel(progress);
-#pragma omp parallel for schedule(static)
-    for (int64_t t = 0; t < n; ++t) {
-      if (fillCancel.skip(t)) continue;
-      for (int32_t v : verts(t))
-        if (keep(v))
-          list[size_t(std::atomic_ref<int64_t>(fill[size_t(v)]).fetch_add(1, std::memory_order_relaxed))] =
-              static_cast<int32_t>(t);
-    }
-    fillCancel.rethrow();
-  }
-  sortEachBucket(list.begin(), start, progress);
+  fileByBucket<int32_t>(
+      n, nP,
+      [&](int64_t t, auto&& emit) {
+        for (int32_t v : verts(t))
+          if (keep(v)) emit(v, static_cast<int32_t>(t));
+      },
+      start, list, progress);
 }
 
 // Union-find whose root is always the smallest index of its set (deterministic numbering).

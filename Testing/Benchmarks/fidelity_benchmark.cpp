@@ -116,7 +116,7 @@ std::string runOne(const std::string& what, const LabelVolume& labels, const Set
   t0 = now();
   CleavePipelineResult r = cleavePipeline(bg, mats, pp, timer);
   improveMesh(r.cleaved.mesh, ImproveParams{}, timer, &r.faceNeighbours);
-  if (s.after) finishLabels(r.cleaved.mesh, mats, r, timer, true);
+  if (s.after) finishLabels(r.cleaved.mesh, mats, r, timer);
   const double total = now() - t0;
   const double repair = timer.of("repair") + timer.of("image topology");
   const double correct = timer.of("correct");

@@ -313,7 +313,7 @@ Row runTetFlow(const InputSpec& spec) {
   pp.correction.max_angle = ip.max_angle;
   CleavePipelineResult res = cleavePipeline(bg, *in.mats, pp, np);
   improveMesh(res.cleaved.mesh, ip, np, &res.faceNeighbours);
-  finishLabels(res.cleaved.mesh, *in.mats, res, np, true);
+  finishLabels(res.cleaved.mesh, *in.mats, res, np);
   r.seconds = now() - t0;
   stopMeasuring(r);
   judge(res.cleaved.mesh, in.labels, r);

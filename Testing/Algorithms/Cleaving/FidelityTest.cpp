@@ -205,8 +205,8 @@ TEST(Fidelity, TheCleavesFaceNeighboursFollowTheImprovementToTheLabelFinish) {
     TetMesh again = r.cleaved.mesh;
     CleavePipelineResult r2;
     r2.image = r.image;
-    const int64_t a = finishLabels(r.cleaved.mesh, mats, r, np, true);
-    const int64_t b = finishLabels(again, mats, r2, np, false);
+    const int64_t a = finishLabels(r.cleaved.mesh, mats, r, np);
+    const int64_t b = finishLabels(again, mats, r2, np); // no face neighbours: computed again
     EXPECT_TRUE(r.faceNeighbours.empty());
     EXPECT_EQ(a, b);
     EXPECT_EQ(r.cleaved.mesh.materials, again.materials);
