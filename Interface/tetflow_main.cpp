@@ -5,7 +5,7 @@
 //   tetflow validate NET.srn [--set ...]
 //   tetflow list-modules
 //   tetflow describe MODULE
-//   tetflow certify MESH LABELS [--max-volume-error PCT] [--require-components]
+//   tetflow certify MESH [LABELS] [--max-volume-error PCT] [--require-components]
 //                   [--forbid-spurious-contacts] [--strict] [--output MESH] [--report out.json]
 //
 // Exit status: 0 all modules succeeded; 1 a module failed (downstream ones skipped); 2 bad
@@ -63,6 +63,7 @@ const char* kUsage =
     "  tetflow list-modules              list the available modules\n"
     "  tetflow describe MODULE           ports and parameters of a module\n"
     "  tetflow certify MESH LABELS [opts] compare a mesh with its label volume (the certificate)\n"
+    "  tetflow certify MESH              the quality of a mesh alone (any mesh format, e.g. Gmsh .msh)\n"
     "options for run:\n"
     "  --set ID.PARAM=VALUE   override a parameter (repeatable), e.g. --set m3.alpha_long=0.25\n"
     "  --report FILE.json     write every module's report, timings and errors as JSON\n"
@@ -291,7 +292,8 @@ int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
 }
 
 // tetflow certify MESH LABELS: ReadMesh + ReadLabelVolume -> EvaluateQuality (-> WriteMesh), run
-// like a network, then the certificate's figures printed as a table.
+// like a network, then the certificate's figures printed as a table. With MESH alone (a mesh from
+// another tool, with no voxels to compare with): its quality figures and volumes per label.
 int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   RunArgs r;
   std::vector<std::string> files;
@@ -328,7 +330,12 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
       return usageError(e.what());
     }
   }
-  if (files.size() != 2) return usageError("certify takes a mesh file and a label volume file");
+  if (files.size() != 1 && files.size() != 2)
+    return usageError("certify takes a mesh file and a label volume file (or a mesh file alone: its quality only)");
+  const bool withLabels = files.size() == 2;
+  if (!withLabels && (requireComponents || forbidContacts || maxErr != "0"))
+    return usageError("--max-volume-error, --require-components, --forbid-spurious-contacts and --strict compare "
+                      "the mesh with a label volume: give one after the mesh file");
   for (const auto& f : files)
     if (!std::filesystem::exists(f)) {
       std::cerr << "tetflow: " << f << ": file not found\n";
@@ -339,14 +346,16 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   try {
     net.addModule("ReadMesh", "mesh");
     net.setParameterText("mesh", "filename", abs(files[0]));
-    net.addModule("ReadLabelVolume", "labels");
-    net.setParameterText("labels", "filename", abs(files[1]));
     net.addModule("EvaluateQuality", "certificate");
     net.setParameterText("certificate", "max_volume_error", maxErr);
     net.setParameterText("certificate", "require_components", requireComponents ? "true" : "false");
     net.setParameterText("certificate", "forbid_spurious_contacts", forbidContacts ? "true" : "false");
     net.connect("mesh", 0, "certificate", 0);
-    net.connect("labels", 0, "certificate", 1);
+    if (withLabels) {
+      net.addModule("ReadLabelVolume", "labels");
+      net.setParameterText("labels", "filename", abs(files[1]));
+      net.connect("labels", 0, "certificate", 1);
+    }
     if (!output.empty()) {
       net.addModule("WriteMesh", "output");
       net.setParameterText("output", "filename", abs(output));
@@ -359,12 +368,30 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   r.net = "certify";
   return runNetwork(&net, r, [&](const Executor& exec) {
     const ModuleState* s = exec.state("certificate");
-    if (!s || r.quiet || !s->report.has("cert_rule")) return;
+    if (!s || r.quiet || !s->report.has("tets")) return;
     const Report& rep = s->report;
     auto text = [&](const std::string& k) {
       const ReportValue* v = rep.find(k);
       return v ? formatReportValue(*v) : std::string("-");
     };
+    if (!rep.has("cert_rule")) { // a mesh alone: its quality
+      std::printf("quality: %s tets, %s vertices; valid %s; inverted %s, zero volume %s, duplicate %s; "
+                  "boundary closed %s, non-manifold faces %s; dihedral angles [%.2f, %.2f] deg\n",
+                  text("tets").c_str(), text("vertices").c_str(), text("valid").c_str(), text("inverted").c_str(),
+                  text("zero_volume").c_str(), text("duplicate_tets").c_str(), text("boundary_closed").c_str(),
+                  text("nonmanifold_faces").c_str(), rep.number("min_dihedral_deg"), rep.number("max_dihedral_deg"));
+      std::printf("%8s %14s\n", "label", "mesh mm^3");
+      for (const auto& [k, v] : rep.entries()) {
+        const std::string pre = "material_", suf = "_volume_mm3";
+        if (k.rfind(pre, 0) != 0 || k.size() <= pre.size() + suf.size() ||
+            k.compare(k.size() - suf.size(), suf.size(), suf) != 0)
+          continue;
+        const std::string L = k.substr(pre.size(), k.size() - pre.size() - suf.size());
+        if (L.find_first_not_of("-0123456789") != std::string::npos) continue;
+        std::printf("%8s %14.6g\n", L.c_str(), rep.number(k));
+      }
+      return;
+    }
     std::printf("certificate: %s\n", text("cert_rule").c_str());
     std::printf("%8s %14s %14s %9s %7s %7s %7s %9s\n", "label", "voxels mm^3", "mesh mm^3", "error %",
                 "image", "robust", "mesh", "agree %");

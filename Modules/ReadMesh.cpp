@@ -1,4 +1,4 @@
-// ReadMesh: a tetrahedral mesh from .vtu, .vtk or TetGen .node/.ele.
+// ReadMesh: a tetrahedral mesh from .vtu, .vtk, Gmsh .msh (2.x, 4.1) or TetGen .node/.ele.
 #include "Algorithms/IO/MeshIO.h"
 #include "StandardModules.h"
 
@@ -24,8 +24,10 @@ void registerReadMesh(ModuleRegistry& r) {
   ModuleInfo m;
   m.name = "ReadMesh";
   m.category = "DataIO";
-  m.description = "Reads a tetrahedral mesh (.vtu, .vtk, TetGen .node/.ele) with its material "
-                  "labels and fields.";
+  m.description = "Reads a tetrahedral mesh (.vtu, .vtk, Gmsh .msh 2.x / 4.1 ASCII or binary, "
+                  "TetGen .node/.ele) with its material labels, names (.msh physical names) and "
+                  "fields (.vtu, .vtk). From .msh only 4-node tetrahedra are kept; boundary "
+                  "triangles, lines and points are skipped.";
   m.outputs = {{"mesh", {PortType::TetMesh}, "the mesh"}};
   ParamSpec f;
   f.name = "filename";

@@ -1,4 +1,5 @@
-// WriteMesh: a tetrahedral mesh to .vtu, .vtk, Gmsh .msh 4.1 or TetGen .node/.ele.
+// WriteMesh: a tetrahedral mesh to .vtu, .vtk, Gmsh .msh (4.1, or 2.2 ASCII / binary) or TetGen
+// .node/.ele.
 #include <filesystem>
 
 #include "Algorithms/IO/MeshIO.h"
@@ -12,6 +13,8 @@ MeshFormat formatFromName(const std::string& s) {
   if (s == "vtk") return MeshFormat::VtkLegacy;
   if (s == "msh") return MeshFormat::Gmsh41;
   if (s == "tetgen") return MeshFormat::TetGen;
+  if (s == "msh22") return MeshFormat::Gmsh22;
+  if (s == "msh22_binary") return MeshFormat::Gmsh22Binary;
   return MeshFormat::Auto;
 }
 
@@ -35,7 +38,8 @@ void registerWriteMesh(ModuleRegistry& r) {
   m.name = "WriteMesh";
   m.category = "DataIO";
   m.description = "Writes a tetrahedral mesh: .vtu / .vtk (material and fields as cell/point "
-                  "data), .msh (Gmsh 4.1, material as physical group), .node/.ele (TetGen, "
+                  "data), .msh (Gmsh 4.1, or 2.2 with format msh22 / msh22_binary as SimNIBS and "
+                  "DUNEuro read it; material as named physical group), .node/.ele (TetGen, "
                   "material as region attribute). Written atomically.";
   m.inputs = {{"mesh", {PortType::TetMesh}, "mesh to write"}};
   ParamSpec f;
@@ -48,8 +52,9 @@ void registerWriteMesh(ModuleRegistry& r) {
   fmt.name = "format";
   fmt.type = ParamType::Enum;
   fmt.defaultValue = std::string("auto");
-  fmt.choices = {"auto", "vtu", "vtk", "msh", "tetgen"};
-  fmt.description = "file format; auto = from the file extension";
+  fmt.choices = {"auto", "vtu", "vtk", "msh", "tetgen", "msh22", "msh22_binary"};
+  fmt.description = "file format; auto = from the file extension (.msh: MSH 4.1); msh22 and "
+                    "msh22_binary: Gmsh MSH 2.2 ASCII / binary";
   m.params = {f, fmt};
   m.summaryKeys = {"tets", "file"};
   m.factory = [] { return std::make_unique<WriteMesh>(); };

@@ -899,7 +899,8 @@ void repairFragments(Steps& s) {
     // neighbours, with a least-volume chain of tets (leastVolumeChain) to that label's nearest
     // tet taking it too: alone it would be an island of that label, another split.
     int64_t chained = 0;
-    for (const auto& [r, own] : keptRoots) {
+    for (const auto& [r, ownLabel] : keptRoots) {
+      const int32_t own = ownLabel; // a copy: lambdas cannot capture a structured binding in clang 14
       std::vector<int64_t> piece;
       for (int64_t t : candidateTets)
         if (sets.find(int32_t(t)) == r) piece.push_back(t);
@@ -919,7 +920,8 @@ void repairFragments(Steps& s) {
         if (ok) order.push_back({-f, L});
       }
       std::sort(order.begin(), order.end());
-      for (const auto& [unused, L] : order) {
+      for (const auto& [unused, label] : order) {
+        const int32_t L = label; // a copy, as above
         auto inPiece = [&](int32_t t) { return std::binary_search(piece.begin(), piece.end(), int64_t(t)); };
         auto fits = [&](int32_t a, int32_t pred, int32_t succ) {
           for (int f = 0; f < 4; ++f) {

@@ -6,6 +6,8 @@
 //                signedTetVolume(p[a], p[b], p[c], p[d]) > 0 (d on the side (b-a)x(c-a) points to)
 // materials[t] : material label of tet t (the label value of the input, not a dense index)
 // pointFields / cellFields : named fields, `components` values per point / per tet, interleaved.
+// materialNames : optional tissue names by material label (e.g. 3 -> "CSF"); a label without an
+//                entry has no name. Formats that carry names read and write them (MeshIO.h).
 #include <array>
 #include <cstdint>
 #include <map>
@@ -29,6 +31,7 @@ struct TetMesh {
   std::vector<int32_t> materials;
   std::map<std::string, Field> pointFields;
   std::map<std::string, Field> cellFields;
+  std::map<int32_t, std::string> materialNames;
 
   size_t numPoints() const { return points.size(); }
   size_t numTets() const { return tets.size(); }

@@ -206,8 +206,17 @@ TEST(Cli, CertifyComparesAMeshWithItsLabelsAndFailsOnThresholds) {
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("max_volume_error 3 %"), std::string::npos) << r.out;
 
+  // A mesh alone: its quality (a mesh from another tool has no voxels to compare with).
+  r = run("certify " + tmp.file("blob.vtu"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("valid yes; inverted 0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("boundary closed yes, non-manifold faces 0"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("certificate:"), std::string::npos) << r.out;
+
   // Usage and missing files.
-  EXPECT_EQ(run("certify " + tmp.file("blob.vtu")).code, 2);
+  r = run("certify " + tmp.file("blob.vtu") + " --strict");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("give one after the mesh file"), std::string::npos) << r.out;
   EXPECT_EQ(run("certify " + files + " --bogus").code, 2);
   r = run("certify " + tmp.file("nothing.vtu") + " " + tmp.file("blob.nrrd"));
   EXPECT_EQ(r.code, 3);

@@ -1,6 +1,6 @@
 // libFuzzer target for one file reader, chosen at compile time by TETFLOW_FUZZ_FORMAT (see
 // Testing/CMakeLists.txt): nrrd, nifti, metaimage, inr, vti (volumes, read and converted to labels
-// as ReadLabelVolume does) or vtu, vtk, tetgen (meshes, read as ReadMesh does). A reader may refuse
+// as ReadLabelVolume does) or vtu, vtk, tetgen, msh (meshes, read as ReadMesh does). A reader may refuse
 // an input only with InputError; any other exception, crash, leak, hang or huge allocation is a
 // finding. For TetGen the input is split at its first NUL byte into the .node and .ele files.
 #include <cstdint>
@@ -45,6 +45,7 @@ void fuzzOne(const uint8_t* data, size_t size) {
   if (f == "vti") return readVolumeFile(fuzz::writeInput("in.vti", data, size));
   if (f == "vtu") return readMeshFile(fuzz::writeInput("in.vtu", data, size));
   if (f == "vtk") return readMeshFile(fuzz::writeInput("in.vtk", data, size));
+  if (f == "msh") return readMeshFile(fuzz::writeInput("in.msh", data, size));
   if (f == "tetgen") {
     const uint8_t* nul = static_cast<const uint8_t*>(std::memchr(data, 0, size));
     const size_t split = nul ? size_t(nul - data) : size;
