@@ -380,7 +380,7 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
                   text("tets").c_str(), text("vertices").c_str(), text("valid").c_str(), text("inverted").c_str(),
                   text("zero_volume").c_str(), text("duplicate_tets").c_str(), text("boundary_closed").c_str(),
                   text("nonmanifold_faces").c_str(), rep.number("min_dihedral_deg"), rep.number("max_dihedral_deg"));
-      std::printf("%8s %14s\n", "label", "mesh mm^3");
+      std::printf("%8s %14s  %s\n", "label", "mesh mm^3", "name");
       for (const auto& [k, v] : rep.entries()) {
         const std::string pre = "material_", suf = "_volume_mm3";
         if (k.rfind(pre, 0) != 0 || k.size() <= pre.size() + suf.size() ||
@@ -388,23 +388,25 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
           continue;
         const std::string L = k.substr(pre.size(), k.size() - pre.size() - suf.size());
         if (L.find_first_not_of("-0123456789") != std::string::npos) continue;
-        std::printf("%8s %14.6g\n", L.c_str(), rep.number(k));
+        const std::string nameKey = pre + L + "_name";
+        std::printf("%8s %14.6g  %s\n", L.c_str(), rep.number(k), rep.has(nameKey) ? text(nameKey).c_str() : "");
       }
       return;
     }
     std::printf("certificate: %s\n", text("cert_rule").c_str());
-    std::printf("%8s %14s %14s %9s %7s %7s %7s %9s\n", "label", "voxels mm^3", "mesh mm^3", "error %",
-                "image", "robust", "mesh", "agree %");
+    std::printf("%8s %14s %14s %9s %7s %7s %7s %9s  %s\n", "label", "voxels mm^3", "mesh mm^3", "error %",
+                "image", "robust", "mesh", "agree %", "name");
     for (const auto& [k, v] : rep.entries()) {
       const std::string pre = "cert_label_", suf = "_voxel_volume_mm3";
       if (k.rfind(pre, 0) != 0 || k.size() <= suf.size() || k.compare(k.size() - suf.size(), suf.size(), suf) != 0)
         continue;
       const std::string L = k.substr(pre.size(), k.size() - pre.size() - suf.size());
       const std::string b = pre + L + "_";
-      std::printf("%8s %14.6g %14.6g %+9.2f %7s %7s %7s %9.2f\n", L.c_str(), rep.number(b + "voxel_volume_mm3"),
+      std::printf("%8s %14.6g %14.6g %+9.2f %7s %7s %7s %9.2f  %s\n", L.c_str(), rep.number(b + "voxel_volume_mm3"),
                   rep.number(b + "mesh_volume_mm3"), 100.0 * rep.number(b + "volume_rel_error"),
                   text(b + "image_components").c_str(), text(b + "robust_components").c_str(),
-                  text(b + "mesh_components").c_str(), 100.0 * rep.number(b + "voxel_agreement"));
+                  text(b + "mesh_components").c_str(), 100.0 * rep.number(b + "voxel_agreement"),
+                  rep.has(b + "name") ? text(b + "name").c_str() : "");
     }
     std::printf("excluded labels: %s; components lost %s, lost_small %s, split %s, merged %s, spurious %s; "
                 "spurious contacts %s (%s mm^2), missing %s; non-manifold edges %s, vertices %s\n",

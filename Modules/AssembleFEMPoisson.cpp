@@ -13,7 +13,8 @@ public:
   void execute(ExecutionContext& ctx) override {
     const TetMesh& in = ctx.inputAs<TetMeshData>(0).value;
     PoissonParams p;
-    p.conductivities = parseConductivities(ctx.getList("conductivities"), ctx.getDouble("default_conductivity"));
+    Report conductivityReport;
+    p.conductivities = conductivitiesFrom(ctx, in, conductivityReport);
     p.boundary = boundaryConditionFromName(ctx.getString("boundary_condition"));
     const std::string axis = ctx.getString("electrode_axis");
     p.electrode_axis = axis == "x" ? 0 : axis == "y" ? 1 : 2;
@@ -33,6 +34,7 @@ public:
     PoissonResult r = solvePoisson(in, p, ctx.progress());
     Report report;
     writePoissonReport(r, report);
+    for (const auto& [key, value] : conductivityReport.entries()) report.set(key, value);
     for (const auto& [key, value] : report.entries()) ctx.report().set(key, value);
     for (const auto& note : r.notes) ctx.log(note);
 
@@ -68,11 +70,8 @@ void registerAssembleFEMPoisson(ModuleRegistry& r) {
                {"matrix", {PortType::Matrix}, "reduced stiffness matrix K over the free vertices (mS)"},
                {"report", {PortType::Report}, "FEM figures (same as the module report)"}};
 
-  ParamSpec cond = makeParam("conductivities", ParamType::List, std::vector<std::string>{}, "S/m",
-                             "label:sigma entries separated by ';' (e.g. 1:0.33; 2:0.0042); an "
-                             "anisotropic tensor as label:xx yy zz xy yz xz");
-  ParamSpec def = makeParam("default_conductivity", ParamType::Double, d.conductivities.defaultSigma, "S/m",
-                            "conductivity of labels not listed in conductivities (> 0)");
+  const std::vector<ParamSpec> cp = conductivityParamSpecs();
+  const ParamSpec &cond = cp[0], &def = cp[1];
   ParamSpec bc = makeParam("boundary_condition", ParamType::Enum, std::string("boundary"), "",
                            "boundary, electrodes, material_electrodes or dipole (DESIGN §6)");
   bc.choices = {"boundary", "electrodes", "material_electrodes", "dipole"};
@@ -104,7 +103,7 @@ void registerAssembleFEMPoisson(ModuleRegistry& r) {
                             "higher-potential electrode to the other; the potentials are scaled to "
                             "it (0 = the potentials as given)");
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5], condNumbers, inj};
+  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5], condNumbers, inj, cp[2]};
   m.summaryKeys = {"dofs", "nnz", "kappa", "iterations", "relative_residual", "converged"};
   m.factory = [] { return std::make_unique<AssembleFEMPoisson>(); };
   r.add(std::move(m));

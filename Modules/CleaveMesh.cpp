@@ -116,6 +116,7 @@ public:
                "cell_size to keep it";
         ctx.log(msg.str());
       }
+    carryLabelNames(ctx.input(0), r.mesh);
     ctx.setOutput(0, makeData<TetMeshData>(std::move(r.mesh)));
   }
 };

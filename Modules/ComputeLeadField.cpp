@@ -17,7 +17,7 @@ public:
   void execute(ExecutionContext& ctx) override {
     const TetMesh& mesh = ctx.inputAs<TetMeshData>(0).value;
     LeadFieldParams p;
-    p.conductivities = parseConductivities(ctx.getList("conductivities"), ctx.getDouble("default_conductivity"));
+    p.conductivities = conductivitiesFrom(ctx, mesh, ctx.report());
     const std::string efile = ctx.getPath("electrodes_file");
     if (ctx.getString("electrodes_file").empty())
       throw InputError("electrodes_file: give the electrode positions (.csv/.tsv/.txt name,x,y,z in mm, .elc or .sfp)");
@@ -94,10 +94,8 @@ void registerComputeLeadField(ModuleRegistry& r) {
   m.inputs = {{"mesh", {PortType::TetMesh}, "tetrahedral head mesh with material labels (mm)"}};
   m.outputs = {{"lead field", {PortType::DenseMatrix}, "electrodes x (3 sources): column 3 s + k = unit dipole along axis k at source s (V per mA mm)"},
                {"report", {PortType::Report}, "lead field figures (same as the module report)"}};
-  ParamSpec cond = makeParam("conductivities", ParamType::List, std::vector<std::string>{}, "S/m",
-                             "label:sigma entries separated by ';' (e.g. 1:0.33; 2:0.0042)");
-  ParamSpec def = makeParam("default_conductivity", ParamType::Double, 1.0, "S/m",
-                            "conductivity of labels not listed in conductivities (> 0)");
+  const std::vector<ParamSpec> cp = conductivityParamSpecs();
+  const ParamSpec &cond = cp[0], &def = cp[1];
   ParamSpec ef = makeParam("electrodes_file", ParamType::String, std::string(), "",
                            "electrode positions: .csv/.tsv/.txt (name, x, y, z in mm), .elc or .sfp; "
                            "relative names resolve against the network file's folder");
@@ -118,7 +116,7 @@ void registerComputeLeadField(ModuleRegistry& r) {
                             "the output folder");
   out.isOutputPath = true;
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out};
+  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2]};
   m.summaryKeys = {"electrodes", "sources", "solves", "iterations_max", "snap_distance_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeLeadField>(); };
   r.add(std::move(m));

@@ -26,6 +26,9 @@ public:
 
     Report report;
     writeQualityReport(result, report);
+    for (const auto& [label, mq] : result.materials)
+      if (auto n = in.materialNames.find(label); n != in.materialNames.end())
+        report.set("material_" + std::to_string(label) + "_name", n->second);
     if (!result.valid) ctx.log("the mesh is not valid (see inverted, zero_volume, duplicate_tets, "
                                "nonmanifold_faces)");
 

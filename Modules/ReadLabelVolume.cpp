@@ -1,5 +1,6 @@
 // ReadLabelVolume: a segmentation from NRRD, NIfTI, MetaImage, INRIA or VTK image files, with
-// spacing and origin kept.
+// spacing and origin kept, and the tissue names of its label table (given, or found beside it).
+#include "Algorithms/IO/LabelTable.h"
 #include "Algorithms/IO/VolumeIO.h"
 #include "StandardModules.h"
 
@@ -15,6 +16,16 @@ public:
     ctx.progress().endStage();
     LabelVolume v = toLabelVolume(raw, path);
     raw = RawVolume{}; // release the file's copy before reporting
+    std::string tablePath;
+    if (!ctx.getString("label_table").empty()) tablePath = ctx.getPath("label_table");
+    else if (ctx.getBool("find_label_table")) tablePath = labelTableBeside(path);
+    if (!tablePath.empty()) {
+      LabelTable t = readLabelTable(tablePath);
+      v.labelNames = std::move(t.names);
+      v.labelConductivities = std::move(t.conductivities);
+      ctx.report().set("label_table", tablePath);
+      ctx.report().set("label_table_format", t.format);
+    }
     ctx.report().set("file", path);
     reportLabelVolume(ctx.report(), v);
     ctx.setOutput(0, makeData<LabelVolumeData>(std::move(v)));
@@ -29,7 +40,7 @@ void registerReadLabelVolume(ModuleRegistry& r) {
   std::string exts;
   for (const auto& e : volumeExtensions()) exts += (exts.empty() ? "" : " ") + e;
   m.description = "Reads a labelled (segmented) volume: any integer label values, spacing and "
-                  "origin kept in mm. Formats: " + exts + ".";
+                  "origin kept in mm, tissue names from a label table. Formats: " + exts + ".";
   m.outputs = {{"volume", {PortType::LabelVolume}, "the labels"}};
   ParamSpec f;
   f.name = "filename";
@@ -37,7 +48,17 @@ void registerReadLabelVolume(ModuleRegistry& r) {
   f.defaultValue = std::string();
   f.description = "volume file; relative names resolve against the network file's folder";
   f.isInputPath = true;
-  m.params = {f};
+  ParamSpec table = makeParam("label_table", ParamType::String, std::string(), "",
+                              "the tissue names (and optionally conductivities) of the labels: an "
+                              "ITK-SNAP label description, a FreeSurfer colour table (*LUT.txt, "
+                              ".ctbl) or CSV/TSV rows 'label, name[, conductivity S/m]'; empty = "
+                              "look beside the volume (find_label_table)");
+  table.isInputPath = true;
+  ParamSpec find = makeParam("find_label_table", ParamType::Bool, true, "",
+                             "with label_table empty, use the table that comes with the volume by "
+                             "convention, if there is one: NAME_LUT.txt (SimNIBS charm), NAME.lut, "
+                             "NAME.ctbl, NAME.label, NAME.txt, NAME.csv or NAME.tsv beside NAME.EXT");
+  m.params = {f, table, find};
   m.summaryKeys = {"dims", "labels"};
   m.factory = [] { return std::make_unique<ReadLabelVolume>(); };
   r.add(std::move(m));

@@ -1,5 +1,6 @@
 #include "StandardModules.h"
 
+#include <set>
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
@@ -34,6 +35,21 @@ std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, doubl
   return std::make_shared<const LabelMaterials>(vol, blendSigma);
 }
 
+void carryLabelNames(const DataPtr& labels, TetMesh& mesh) {
+  if (!labels || labels->type() != PortType::LabelVolume) return;
+  const LabelVolume& v = static_cast<const LabelVolumeData&>(*labels).value;
+  std::set<int32_t> present;
+  int32_t last = 0;
+  for (size_t t = 0; t < mesh.materials.size(); ++t)
+    if (t == 0 || mesh.materials[t] != last) present.insert(last = mesh.materials[t]);
+  mesh.materialNames.clear();
+  mesh.materialConductivities.clear();
+  for (int32_t L : present) {
+    if (auto it = v.labelNames.find(L); it != v.labelNames.end()) mesh.materialNames[L] = it->second;
+    if (auto it = v.labelConductivities.find(L); it != v.labelConductivities.end()) mesh.materialConductivities[L] = it->second;
+  }
+}
+
 void reportLabelVolume(Report& report, const LabelVolume& v) {
   const auto& g = v.grid;
   auto triple = [](double a, double b, double c) {
@@ -57,6 +73,13 @@ void reportLabelVolume(Report& report, const LabelVolume& v) {
     list += std::to_string(label);
   }
   report.set("label_values", list);
+  if (!v.labelNames.empty()) {
+    std::string names;
+    for (const auto& [label, n] : counts)
+      if (auto it = v.labelNames.find(label); it != v.labelNames.end())
+        names += (names.empty() ? "" : "; ") + std::to_string(label) + " " + it->second;
+    report.set("label_names", names);
+  }
   for (const auto& [label, n] : counts) {
     const std::string key = "label_" + std::to_string(label);
     report.set(key + "_voxels", ReportValue(int64_t(n)));

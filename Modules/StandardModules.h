@@ -1,6 +1,7 @@
 #pragma once
 // Registration of every TetFlow module. Dataflow never includes concrete modules: tools call this
 // once to fill a registry.
+#include "Algorithms/FEM/Conductivity.h"
 #include "Algorithms/FEM/IterativeSolver.h"
 #include "Algorithms/MeshImprovement/MeshImprovement.h"
 #include "Dataflow/ModuleRegistry.h"
@@ -43,9 +44,18 @@ void logUnfixed(ExecutionContext& ctx, const ImproveStats& s, const ImproveParam
 // Solver parameters shared by AssembleFEMPoisson and ComputeLeadField, in this order: solver,
 // preconditioner, tolerance, max_iterations, solver_backend, petsc_options.
 std::vector<ParamSpec> solverParamSpecs();
+// conductivities, default_conductivity, conductivity_by_name (ConductivityParams.cpp).
+std::vector<ParamSpec> conductivityParamSpecs();
+// The conductivity table those give for `mesh`: labels or tissue names, then the mesh's label
+// table, the literature by name and the default; each material's value, source and name are
+// added to `report`.
+ConductivityTable conductivitiesFrom(const ExecutionContext& ctx, const TetMesh& mesh, Report& report);
 SolverParams solverParamsFrom(const ExecutionContext& ctx);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);
+// A mesh made from a label volume takes the tissue names and conductivities of the labels it holds
+// (nothing for other inputs, such as indicator functions).
+void carryLabelNames(const DataPtr& labels, TetMesh& mesh);
 
 } // namespace tetflow

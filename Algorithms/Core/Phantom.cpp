@@ -144,6 +144,7 @@ Phantom makePhantom(const PhantomParams& p) {
     g.origin = {o, oy, oy};
   }
   ph.volume.allocate(g, ph.background);
+  if (p.kind == PhantomKind::Head) ph.volume.labelNames = {{0, "air"}, {1, "scalp"}, {2, "skull"}, {3, "CSF"}, {4, "brain"}};
 
   const int64_t nx = g.dims[0], ny = g.dims[1], nz = g.dims[2];
 #pragma omp parallel for schedule(static)

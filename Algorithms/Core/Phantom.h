@@ -8,7 +8,8 @@
 // first order in voxel size.
 //
 // Kinds (values are stable; names are the CreatePhantom `kind` enum):
-//   head        four concentric layers: 1 scalp, 2 skull, 3 CSF, 4 brain, background 0 (air)
+//   head        four concentric layers: 1 scalp, 2 skull, 3 CSF, 4 brain, background 0 (air);
+//               the volume carries these names (Volume::labelNames)
 //   sphere      one sphere (label 1) in a box of background 0
 //   two_spheres two spheres of equal radius touching at the origin: label 1 (x<0), label 2 (x>0)
 //   shell       a thin shell (label 1, `shell_thickness` thick) around a core (label 2)

@@ -8,6 +8,8 @@
 // pointFields / cellFields : named fields, `components` values per point / per tet, interleaved.
 // materialNames : optional tissue names by material label (e.g. 3 -> "CSF"); a label without an
 //                entry has no name. Formats that carry names read and write them (MeshIO.h).
+// materialConductivities : optional conductivities [S/m] by label, from a label table; used by
+//                AssembleFEMPoisson for labels its `conductivities` parameter does not list.
 #include <array>
 #include <cstdint>
 #include <map>
@@ -32,6 +34,7 @@ struct TetMesh {
   std::map<std::string, Field> pointFields;
   std::map<std::string, Field> cellFields;
   std::map<int32_t, std::string> materialNames;
+  std::map<int32_t, double> materialConductivities;
 
   size_t numPoints() const { return points.size(); }
   size_t numTets() const { return tets.size(); }

@@ -41,6 +41,10 @@ template <class T>
 struct Volume {
   GridGeometry grid;
   std::vector<T> data; // size grid.voxelCount()
+  // Label volumes: the tissue name and the conductivity [S/m] of label values, where a label
+  // table (LabelTable.h) or the phantom gives them; labels without an entry have none.
+  std::map<int32_t, std::string> labelNames;
+  std::map<int32_t, double> labelConductivities;
 
   int64_t index(int64_t i, int64_t j, int64_t k) const {
     return i + grid.dims[0] * (j + grid.dims[1] * k);

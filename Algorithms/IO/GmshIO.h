@@ -16,8 +16,9 @@
 // pyramids, second- and higher-order tetrahedra) are refused, naming the element and its type.
 // A tet's material is its physical volume tag (2.x: the first tag, or the elementary tag when the
 // physical one is 0; 4.1: the first physical tag of its volume entity, or the entity's tag when it
-// has none); a physical name "material_<n>" gives label n back (the writer's own names, so labels
-// <= 0 round-trip), any other name of a physical volume becomes the label's material name. In 2.x
+// has none); a physical name "material_<n>" gives label n back (the writer's own names, so unnamed
+// labels <= 0 round-trip; a named label <= 0 comes back under its fresh tag), any other name of a
+// physical volume becomes the label's material name. In 2.x
 // an element listed again under the same element tag (an element in two physical groups) is kept
 // once, with its first group. All nodes are kept, in file order. $NodeData and other sections are
 // skipped. Refused with InputError naming the file, the line (ASCII) or byte offset (binary) and

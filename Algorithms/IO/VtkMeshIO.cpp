@@ -29,6 +29,7 @@
 #include <vtkDoubleArray.h>
 #include <vtkErrorCode.h>
 #include <vtkExecutive.h>
+#include <vtkFieldData.h>
 #include <vtkIdTypeArray.h>
 #include <vtkTypeInt32Array.h>
 #include <vtkTypeInt64Array.h>
@@ -223,6 +224,25 @@ vtkSmartPointer<vtkUnstructuredGrid> meshToGrid(const TetMesh& m) {
   };
   addFields(m.pointFields, grid->GetPointData(), static_cast<vtkIdType>(m.numPoints()));
   addFields(m.cellFields, grid->GetCellData(), nt);
+  // The materials' names and conductivities as field data (materialFieldArrays, VtuWriter.h).
+  const MaterialFieldArrays fa = materialFieldArrays(m);
+  for (const auto& [name, label] : fa.names) {
+    vtkNew<vtkIntArray> a;
+    a->SetName(name.c_str());
+    a->InsertNextValue(label);
+    a->InsertNextValue(3);
+    grid->GetFieldData()->AddArray(a);
+  }
+  if (!fa.conductivities.empty()) {
+    vtkNew<vtkDoubleArray> a;
+    a->SetName(kMaterialConductivitiesArray);
+    a->SetNumberOfComponents(2);
+    for (const auto& [label, c] : fa.conductivities) {
+      const double row[2] = {double(label), c};
+      a->InsertNextTuple(row);
+    }
+    grid->GetFieldData()->AddArray(a);
+  }
   return grid;
 }
 
@@ -339,6 +359,33 @@ TetMesh gridToMesh(vtkUnstructuredGrid* g, const std::string& path) {
   m.materials.assign(static_cast<size_t>(nc), 0);
   readArrays(g->GetPointData(), np, "point", m.pointFields, nullptr, path);
   readArrays(g->GetCellData(), nc, "cell", m.cellFields, &m.materials, path);
+  // The materials' names and conductivities (field data, materialFieldArrays in VtuWriter.h):
+  // an integer array of (label) or (label, 3) is a material's name; other arrays are left alone.
+  if (vtkFieldData* fd = g->GetFieldData()) {
+    auto integral = [](vtkDataArray* a) { return a->GetDataType() != VTK_DOUBLE && a->GetDataType() != VTK_FLOAT; };
+    auto label = [](double v) {
+      return v >= std::numeric_limits<int32_t>::min() && v <= std::numeric_limits<int32_t>::max() && v == std::floor(v);
+    };
+    for (int i = 0; i < fd->GetNumberOfArrays(); ++i) {
+      vtkDataArray* a = fd->GetArray(i);
+      if (!a || !a->GetName() || a->GetNumberOfComponents() < 1) continue;
+      const std::string name = a->GetName();
+      const vtkIdType n = a->GetNumberOfTuples();
+      if (name == kMaterialConductivitiesArray && a->GetNumberOfComponents() == 2) {
+        for (vtkIdType t = 0; t < n; ++t) {
+          const double L = a->GetComponent(t, 0), c = a->GetComponent(t, 1);
+          if (label(L) && std::isfinite(c) && c > 0) m.materialConductivities[int32_t(L)] = c;
+        }
+      } else if (integral(a) && a->GetNumberOfComponents() == 1 && (n == 1 || (n == 2 && a->GetComponent(1, 0) == 3)) &&
+                 label(a->GetComponent(0, 0))) {
+        std::string shown = name;
+        const std::string suffix = " (label " + std::to_string(int32_t(a->GetComponent(0, 0))) + ")";
+        if (shown.size() > suffix.size() && shown.compare(shown.size() - suffix.size(), suffix.size(), suffix) == 0)
+          shown.resize(shown.size() - suffix.size());
+        m.materialNames[int32_t(a->GetComponent(0, 0))] = shown;
+      }
+    }
+  }
   m.validateStructure(path);
   orientPositively(m);
   return m;

@@ -30,6 +30,7 @@
 #include <memory>
 #include <new>
 #include <stdexcept>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -365,7 +366,43 @@ std::string patchText(const Array& a) {
   return t;
 }
 
+// The materials' names and conductivities as field data, in ASCII (materialFieldArrays, VtuWriter.h).
+std::string materialFieldData(const TetMesh& m) {
+  const MaterialFieldArrays f = materialFieldArrays(m);
+  if (f.names.empty() && f.conductivities.empty()) return {};
+  std::string x = "    <FieldData>\n";
+  for (const auto& [name, label] : f.names) {
+    x += "      <DataArray type=\"Int32\" Name=\"" + xmlEscape(name) + "\" NumberOfTuples=\"2\" format=\"ascii\">\n        ";
+    appendNumber(x, label);
+    x += " 3\n      </DataArray>\n";
+  }
+  if (!f.conductivities.empty()) {
+    x += "      <DataArray type=\"Float64\" Name=\"" + std::string(kMaterialConductivitiesArray) +
+         "\" NumberOfComponents=\"2\" NumberOfTuples=\"";
+    appendNumber(x, f.conductivities.size());
+    x += "\" format=\"ascii\">\n       ";
+    for (const auto& [label, c] : f.conductivities) {
+      x += ' ';
+      appendNumber(x, double(label));
+      x += ' ';
+      appendNumber(x, c);
+    }
+    x += "\n      </DataArray>\n";
+  }
+  return x + "    </FieldData>\n";
+}
+
 } // namespace
+
+MaterialFieldArrays materialFieldArrays(const TetMesh& m) {
+  MaterialFieldArrays f;
+  std::map<std::string, int> uses;
+  for (const auto& [L, name] : m.materialNames) ++uses[name];
+  for (const auto& [L, name] : m.materialNames)
+    if (!name.empty()) f.names.push_back({uses[name] > 1 ? name + " (label " + std::to_string(L) + ")" : name, L});
+  f.conductivities.assign(m.materialConductivities.begin(), m.materialConductivities.end());
+  return f;
+}
 
 void writeVtuFile(const std::string& path, const TetMesh& m, const VtuWriteOptions& options) {
   const uint64_t nt = m.numTets();
@@ -376,8 +413,9 @@ void writeVtuFile(const std::string& path, const TetMesh& m, const VtuWriteOptio
   std::string xml = "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"";
   xml += std::endian::native == std::endian::little ? "LittleEndian" : "BigEndian";
   xml += "\" header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">\n"
-         "  <UnstructuredGrid>\n"
-         "    <Piece NumberOfPoints=\"";
+         "  <UnstructuredGrid>\n";
+  xml += materialFieldData(m);
+  xml += "    <Piece NumberOfPoints=\"";
   appendNumber(xml, uint64_t(m.numPoints()));
   xml += "\" NumberOfCells=\"";
   appendNumber(xml, nt);

@@ -9,8 +9,12 @@
 // cell field), Points (Float64 x3), Cells (connectivity and offsets Int32, or Int64 once 4 * tets
 // exceeds the int32 range; types UInt8 = VTK_TETRA). Fields are Float64 with their components, in
 // name order. Single-component arrays carry RangeMin/RangeMax (NaN ignored; left out when no
-// value is finite).
+// value is finite). Before the piece, FieldData holds the materials' names and conductivities
+// (materialFieldArrays), in ASCII.
+#include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "../Core/TetMesh.h"
 
@@ -25,6 +29,19 @@ struct VtuWriteOptions {
   // stored zlib blocks; off: every block at level 1, byte for byte what VTK's writer makes.
   bool storeIncompressible = true;
 };
+
+// The materials' names and conductivities as VTK field data, shared by the .vtu and .vtk writers:
+// one Int32 array per named material, called by its name and holding (label, 3) -- the
+// convention meshio uses for Gmsh's physical groups (tag, dimension), so meshio and ParaView
+// users see the names (a name given to two labels gets " (label N)" after it); and one Float64
+// array kMaterialConductivitiesArray of (label, S/m) pairs. Strings are avoided: meshio cannot
+// read a String array.
+inline constexpr const char* kMaterialConductivitiesArray = "material_conductivities";
+struct MaterialFieldArrays {
+  std::vector<std::pair<std::string, int32_t>> names; // (array name, label)
+  std::vector<std::pair<int32_t, double>> conductivities;
+};
+MaterialFieldArrays materialFieldArrays(const TetMesh& m);
 
 // Writes `m` to `path` atomically (temp file + rename). The caller has validated the mesh and
 // its field names (writeMesh). Throws InputError naming `path` when the file cannot be written

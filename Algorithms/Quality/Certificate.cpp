@@ -215,6 +215,8 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
 
   // Labels: per label figures from voxels and tets.
   CertificateResult res;
+  res.names = labels.labelNames;
+  for (const auto& [L, n] : mesh.materialNames) res.names[L] = n;
   std::map<int32_t, LabelCertificate> byLabel;
   std::map<int32_t, int64_t> covered; // voxel centres inside the mesh, per image label
   std::map<int32_t, int64_t> agree;
@@ -546,6 +548,17 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   return res;
 }
 
+std::string CertificateResult::labelText(int32_t label) const { return "label " + numberAndName(label); }
+
+std::string CertificateResult::labelPairText(int32_t a, int32_t b) const {
+  return "labels " + numberAndName(a) + " and " + numberAndName(b);
+}
+
+std::string CertificateResult::numberAndName(int32_t label) const {
+  const auto it = names.find(label);
+  return std::to_string(label) + (it == names.end() || it->second.empty() ? std::string() : " (" + it->second + ")");
+}
+
 std::vector<std::string> certificateFailures(const CertificateResult& r, const CertificateThresholds& t) {
   std::vector<std::string> out;
   char buf[512];
@@ -561,10 +574,10 @@ std::vector<std::string> certificateFailures(const CertificateResult& r, const C
     }
     if (worst) {
       std::snprintf(buf, sizeof buf,
-                    "max_volume_error %.3g %%: %d label(s) exceed it; worst is label %d at %+.2f %% "
+                    "max_volume_error %.3g %%: %d label(s) exceed it; worst is %s at %+.2f %% "
                     "(mesh %.6g mm^3, voxels %.6g mm^3); refine the background at thin layers "
                     "(smaller cell_size / min_cell_size) or lower blend_sigma",
-                    100.0 * t.maxVolumeError, over, worst->label, 100.0 * worst->relError,
+                    100.0 * t.maxVolumeError, over, r.labelText(worst->label).c_str(), 100.0 * worst->relError,
                     worst->meshVolume, worst->voxelVolume);
       out.push_back(buf);
     }
@@ -581,12 +594,12 @@ std::vector<std::string> certificateFailures(const CertificateResult& r, const C
       std::string what;
       if (first) {
         if (first->voxels > 0)
-          std::snprintf(buf, sizeof buf, "%s: label %d, image component of %lld voxels, %d mesh piece(s), at %s",
-                        componentIssueName(first->kind), first->label, static_cast<long long>(first->voxels),
+          std::snprintf(buf, sizeof buf, "%s: %s, image component of %lld voxels, %d mesh piece(s), at %s",
+                        componentIssueName(first->kind), r.labelText(first->label).c_str(), static_cast<long long>(first->voxels),
                         first->pieces, describePlace(first->where).c_str());
         else
-          std::snprintf(buf, sizeof buf, "%s: label %d, mesh component of %.6g mm^3 at %s",
-                        componentIssueName(first->kind), first->label, first->meshVolume,
+          std::snprintf(buf, sizeof buf, "%s: %s, mesh component of %.6g mm^3 at %s",
+                        componentIssueName(first->kind), r.labelText(first->label).c_str(), first->meshVolume,
                         describePlace(first->where).c_str());
         what = buf;
       }
@@ -600,8 +613,8 @@ std::vector<std::string> certificateFailures(const CertificateResult& r, const C
     const auto& c = r.spuriousContacts.front();
     std::snprintf(buf, sizeof buf,
                   "forbid_spurious_contacts: %zu label pair(s) touch in the mesh but not in the image; "
-                  "worst: labels %d and %d over %.6g mm^2 at %s",
-                  r.spuriousContacts.size(), c.a, c.b, c.meshArea, describePlace(c.where).c_str());
+                  "worst: %s over %.6g mm^2 at %s",
+                  r.spuriousContacts.size(), r.labelPairText(c.a, c.b).c_str(), c.meshArea, describePlace(c.where).c_str());
     out.push_back(buf);
   }
   return out;
@@ -633,6 +646,7 @@ void writeCertificateReport(const CertificateResult& r, Report& report, size_t m
   report.set("cert_nonmanifold_vertices", ReportValue(r.nonmanifoldVertices));
   for (const auto& lc : r.labels) {
     const std::string k = "cert_label_" + std::to_string(lc.label) + "_";
+    if (auto n = r.names.find(lc.label); n != r.names.end() && !n->second.empty()) report.set(k + "name", n->second);
     if (lc.excluded) {
       report.set(k + "excluded", ReportValue(true));
       continue;
@@ -654,26 +668,28 @@ void writeCertificateReport(const CertificateResult& r, Report& report, size_t m
   for (size_t i = 0; i < r.componentIssues.size() && i < maxListed; ++i) {
     const auto& is = r.componentIssues[i];
     if (is.voxels > 0)
-      std::snprintf(buf, sizeof buf, "%s: label %d, image component of %lld voxels (%d core(s)), %d mesh piece(s), at %s",
-                    componentIssueName(is.kind), is.label, static_cast<long long>(is.voxels), is.cores,
+      std::snprintf(buf, sizeof buf, "%s: %s, image component of %lld voxels (%d core(s)), %d mesh piece(s), at %s",
+                    componentIssueName(is.kind), r.labelText(is.label).c_str(), static_cast<long long>(is.voxels), is.cores,
                     is.pieces, describePlace(is.where).c_str());
     else if (is.kind == ComponentIssueKind::Merged)
-      std::snprintf(buf, sizeof buf, "merged: label %d, mesh component of %.6g mm^3 joins %d robust image components, at %s",
-                    is.label, is.meshVolume, is.pieces, describePlace(is.where).c_str());
+      std::snprintf(buf, sizeof buf, "merged: %s, mesh component of %.6g mm^3 joins %d robust image components, at %s",
+                    r.labelText(is.label).c_str(), is.meshVolume, is.pieces, describePlace(is.where).c_str());
     else
-      std::snprintf(buf, sizeof buf, "%s: label %d, mesh component of %.6g mm^3, at %s",
-                    componentIssueName(is.kind), is.label, is.meshVolume, describePlace(is.where).c_str());
+      std::snprintf(buf, sizeof buf, "%s: %s, mesh component of %.6g mm^3, at %s",
+                    componentIssueName(is.kind), r.labelText(is.label).c_str(), is.meshVolume, describePlace(is.where).c_str());
     report.set("cert_issue_" + std::to_string(i + 1), std::string(buf));
   }
   for (size_t i = 0; i < r.spuriousContacts.size() && i < maxListed; ++i) {
     const auto& c = r.spuriousContacts[i];
-    std::snprintf(buf, sizeof buf, "labels %d and %d: %.6g mm^2 in the mesh, none in the image, at %s", c.a, c.b,
+    std::snprintf(buf, sizeof buf, "%s: %.6g mm^2 in the mesh, none in the image, at %s",
+                  r.labelPairText(c.a, c.b).c_str(),
                   c.meshArea, describePlace(c.where).c_str());
     report.set("cert_spurious_contact_" + std::to_string(i + 1), std::string(buf));
   }
   for (size_t i = 0; i < r.missingContacts.size() && i < maxListed; ++i) {
     const auto& c = r.missingContacts[i];
-    std::snprintf(buf, sizeof buf, "labels %d and %d: %.6g mm^2 in the image, none in the mesh, at %s", c.a, c.b,
+    std::snprintf(buf, sizeof buf, "%s: %.6g mm^2 in the image, none in the mesh, at %s",
+                  r.labelPairText(c.a, c.b).c_str(),
                   c.imageArea, describePlace(c.where).c_str());
     report.set("cert_missing_contact_" + std::to_string(i + 1), std::string(buf));
   }

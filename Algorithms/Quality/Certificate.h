@@ -131,6 +131,12 @@ struct CertificateResult {
   int lost = 0, lostSmall = 0, split = 0, merged = 0, spurious = 0;
   double spuriousContactArea = 0.0; // [mm^2]
   std::vector<int32_t> flags;       // per tet, bits as above
+  // Tissue names of the labels (the mesh's, else the label volume's); messages say "label 3 (CSF)".
+  std::map<int32_t, std::string> names;
+  // "label 3 (CSF)", or "label 3" without a name; "labels 3 (CSF) and 4 (brain)"; "3 (CSF)".
+  std::string labelText(int32_t label) const;
+  std::string labelPairText(int32_t a, int32_t b) const;
+  std::string numberAndName(int32_t label) const;
 };
 
 CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Progress& progress);

@@ -494,30 +494,19 @@ void MainWindow::showModuleResults(const std::string& id) {
         shown = d;
         break;
       }
-  if (shown) mesh_->showData(shown, labelNames(id), title);
+  if (shown) mesh_->showData(shown, labelNames(shown), title);
   else mesh_->clearData(tr("%1 has no mesh or label volume output").arg(title));
 }
 
-std::map<int, QString> MainWindow::labelNames(const std::string& id) const {
-  // Names for the head phantom's labels when the data comes from CreatePhantom kind=head.
-  std::map<int, QString> names;
-  std::deque<std::string> q{id};
-  std::set<std::string> seen;
-  while (!q.empty()) {
-    const std::string cur = q.front();
-    q.pop_front();
-    if (!seen.insert(cur).second) continue;
-    const ModuleNode* n = net_->module(cur);
-    if (!n) continue;
-    if (n->info->name == "CreatePhantom") {
-      auto it = n->params.find("kind");
-      if (it != n->params.end() && std::get_if<std::string>(&it->second) &&
-          std::get<std::string>(it->second) == "head")
-        return {{0, tr("air")}, {1, tr("scalp")}, {2, tr("skull")}, {3, tr("CSF")}, {4, tr("brain")}};
-    }
-    for (const auto& up : net_->upstream(cur)) q.push_back(up);
-  }
-  return names;
+std::map<int, QString> MainWindow::labelNames(const DataPtr& data) {
+  // The tissue names the data carries (a label table read with the volume, the head phantom's).
+  const std::map<int32_t, std::string>* names = nullptr;
+  if (data->type() == PortType::TetMesh) names = &static_cast<const TetMeshData&>(*data).value.materialNames;
+  else if (data->type() == PortType::LabelVolume) names = &static_cast<const LabelVolumeData&>(*data).value.labelNames;
+  std::map<int, QString> out;
+  if (names)
+    for (const auto& [label, name] : *names) out[label] = QString::fromStdString(name);
+  return out;
 }
 
 void MainWindow::showModuleLog(const std::string& id) {

@@ -87,7 +87,7 @@ private:
   void updateTitle();
   void showModuleResults(const std::string& id);
   void showModuleLog(const std::string& id);
-  std::map<int, QString> labelNames(const std::string& id) const;
+  static std::map<int, QString> labelNames(const DataPtr& data);
 
   const ModuleRegistry& registry_;
   std::unique_ptr<Network> net_;

@@ -121,9 +121,14 @@ TEST(AssembleFEMPoissonModule, BadParametersAreReportedAgainstTheModule) {
   EXPECT_EQ(p.fem().errorKind, "input");
   EXPECT_NE(p.fem().error.find("fem"), std::string::npos) << p.fem().error;
   EXPECT_NE(p.fem().error.find("label 7 does not occur"), std::string::npos) << p.fem().error;
-  p.net.setParameterText("fem", "conductivities", "brain:0.33");
+  p.net.setParameterText("fem", "conductivities", "grey matter:0.33");
   p.exec.execute(p.net);
-  EXPECT_NE(p.fem().error.find("'brain' is not an integer"), std::string::npos) << p.fem().error;
+  EXPECT_NE(p.fem().error.find("no tissue called 'grey matter'; its tissues are scalp (1), skull (2), CSF (3), brain (4)"),
+            std::string::npos)
+      << p.fem().error;
+  p.net.setParameterText("fem", "conductivities", "1:0.33; 2.5:1");
+  p.exec.execute(p.net);
+  EXPECT_NE(p.fem().error.find("'2.5' is not an integer"), std::string::npos) << p.fem().error;
   p.net.setParameterText("fem", "conductivities", "");
   p.net.setParameterText("fem", "boundary_condition", "material_electrodes");
   p.net.setParameterText("fem", "electrode_potentials", "");

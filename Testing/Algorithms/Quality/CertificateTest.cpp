@@ -382,6 +382,22 @@ TEST(Certificate, AnIslandIsSpuriousAndABridgeMergesTwoBlobs) {
   const auto f = certificateFailures(r, {0.03, false, false});
   ASSERT_EQ(f.size(), 1u);
   EXPECT_NE(f[0].find("worst is label 2 at +3.70 %"), std::string::npos) << f[0];
+
+  // With tissue names (the mesh's first, then the volume's), every message names the tissue.
+  v.labelNames = {{1, "CSF"}, {2, "ventricle"}};
+  m.materialNames = {{2, "grey matter"}};
+  const CertificateResult named = certify(m, v);
+  EXPECT_EQ(named.names, (std::map<int32_t, std::string>{{1, "CSF"}, {2, "grey matter"}}));
+  const auto g = certificateFailures(named, {0.03, true, false});
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_NE(g[0].find("worst is label 2 (grey matter) at +3.70 %"), std::string::npos) << g[0];
+  EXPECT_NE(g[1].find(": label 2 (grey matter), "), std::string::npos) << g[1];
+  Report rep;
+  writeCertificateReport(named, rep);
+  EXPECT_EQ(std::get<std::string>(*rep.find("cert_label_1_name")), "CSF");
+  EXPECT_NE(std::get<std::string>(*rep.find("cert_issue_1")).find("label 2 (grey matter)"), std::string::npos);
+  EXPECT_EQ(named.labelPairText(1, 2), "labels 1 (CSF) and 2 (grey matter)");
+  EXPECT_EQ(named.labelPairText(1, 9), "labels 1 (CSF) and 9");
 }
 
 TEST(Certificate, AStrippedOutsideLabelIsExcluded) {
