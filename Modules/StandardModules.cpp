@@ -13,6 +13,7 @@ void registerStandardModules(ModuleRegistry& r) {
   registerWriteVolume(r);
   registerReadMesh(r);
   registerWriteMesh(r);
+  registerExtractSurfaces(r);
   registerEvaluateQuality(r);
   registerReadIndicatorFunctions(r);
   registerComputeSizingField(r);

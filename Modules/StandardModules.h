@@ -16,6 +16,7 @@ void registerReadLabelVolume(ModuleRegistry& r);
 void registerWriteVolume(ModuleRegistry& r);
 void registerReadMesh(ModuleRegistry& r);
 void registerWriteMesh(ModuleRegistry& r);
+void registerExtractSurfaces(ModuleRegistry& r);
 void registerEvaluateQuality(ModuleRegistry& r);
 
 void registerReadIndicatorFunctions(ModuleRegistry& r);
