@@ -15,6 +15,14 @@ public:
     ctx.report().set("file", path);
     ctx.report().set("vertices", ReportValue(int64_t(mesh.numPoints())));
     ctx.report().set("tets", ReportValue(int64_t(mesh.numTets())));
+    if (!mesh.materialNames.empty()) {
+      std::string names;
+      for (const auto& [label, name] : mesh.materialNames) {
+        if (!names.empty()) names += "; ";
+        names += std::to_string(label) + " " + name;
+      }
+      ctx.report().set("material_names", names);
+    }
     ctx.setOutput(0, makeData<TetMeshData>(std::move(mesh)));
   }
 };

@@ -59,7 +59,9 @@ Mesh.MeshSizeMax = 1.5;
     const auto sum = exec.execute(net);
     ASSERT_TRUE(sum.success) << exec.state(read)->error << exec.state(quality)->error << exec.state(fem)->error;
 
+    EXPECT_EQ(std::get<std::string>(*exec.state(read)->report.find("material_names")), "3 scalp; 7 brain");
     const Report& q = exec.state(quality)->report;
+    EXPECT_EQ(std::get<std::string>(*q.find("material_7_name")), "brain");
     EXPECT_EQ(std::get<bool>(*q.find("valid")), true);
     EXPECT_EQ(std::get<bool>(*q.find("boundary_closed")), true);
     EXPECT_EQ(q.number("inverted"), 0);
