@@ -4,11 +4,11 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
-#include <set>
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/IO/FileUtil.h"
+#include "Algorithms/IO/HeaderText.h"
 #include "Algorithms/IO/SurfaceIO.h"
 #include "Algorithms/Quality/LabelTopology.h"
 #include "Algorithms/Surfaces/BemSurfaces.h"
@@ -18,15 +18,7 @@ namespace tetflow {
 
 namespace {
 
-std::string lower(std::string s) {
-  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string trimmed(const std::string& s) {
-  const size_t a = s.find_first_not_of(" \t");
-  return a == std::string::npos ? std::string() : s.substr(a, s.find_last_not_of(" \t") - a + 1);
-}
+std::string trimmed(const std::string& s) { return std::string(headertext::trim(s)); }
 
 struct SurfaceSpec {
   std::string name;
@@ -35,7 +27,8 @@ struct SurfaceSpec {
 
 // "name: 1 2 3" or "name: scalp+skull" entries; empty: one surface "outer" of every material.
 std::vector<SurfaceSpec> parseSurfaces(const std::vector<std::string>& items, const TetMesh& mesh) {
-  const std::set<int32_t> present(mesh.materials.begin(), mesh.materials.end());
+  const std::vector<int32_t> present = presentMaterials(mesh);
+  auto occurs = [&](int32_t L) { return std::binary_search(present.begin(), present.end(), L); };
   std::vector<SurfaceSpec> out;
   for (const std::string& raw : items) {
     const std::string item = trimmed(raw);
@@ -55,14 +48,14 @@ std::vector<SurfaceSpec> parseSurfaces(const std::vector<std::string>& items, co
       int64_t v = 0;
       auto r = std::from_chars(tok.data(), tok.data() + tok.size(), v);
       if (r.ec == std::errc() && r.ptr == tok.data() + tok.size()) {
-        if (!present.count(int32_t(v)))
+        if (!occurs(int32_t(v)))
           throw InputError("surfaces: entry '" + item + "': label " + tok + " does not occur in the mesh");
         s.labels.push_back(int32_t(v));
         continue;
       }
       bool found = false;
-      for (const auto& [L, n] : mesh.materialNames)
-        if (lower(n) == lower(tok) && present.count(L)) {
+      for (int32_t L : labelsNamed(mesh.materialNames, tok))
+        if (occurs(L)) {
           s.labels.push_back(L);
           found = true;
         }
@@ -76,7 +69,7 @@ std::vector<SurfaceSpec> parseSurfaces(const std::vector<std::string>& items, co
       if (o.name == s.name) throw InputError("surfaces: the name '" + s.name + "' is given twice");
     out.push_back(std::move(s));
   }
-  if (out.empty()) out.push_back({"outer", std::vector<int32_t>(present.begin(), present.end())});
+  if (out.empty()) out.push_back({"outer", present});
   return out;
 }
 

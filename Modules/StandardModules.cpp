@@ -1,6 +1,5 @@
 #include "StandardModules.h"
 
-#include <set>
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
@@ -39,13 +38,9 @@ std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, doubl
 void carryLabelNames(const DataPtr& labels, TetMesh& mesh) {
   if (!labels || labels->type() != PortType::LabelVolume) return;
   const LabelVolume& v = static_cast<const LabelVolumeData&>(*labels).value;
-  std::set<int32_t> present;
-  int32_t last = 0;
-  for (size_t t = 0; t < mesh.materials.size(); ++t)
-    if (t == 0 || mesh.materials[t] != last) present.insert(last = mesh.materials[t]);
   mesh.materialNames.clear();
   mesh.materialConductivities.clear();
-  for (int32_t L : present) {
+  for (int32_t L : presentMaterials(mesh)) {
     if (auto it = v.labelNames.find(L); it != v.labelNames.end()) mesh.materialNames[L] = it->second;
     if (auto it = v.labelConductivities.find(L); it != v.labelConductivities.end()) mesh.materialConductivities[L] = it->second;
   }

@@ -1,11 +1,35 @@
 #include "TetMesh.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <sstream>
 
 #include "Errors.h"
 
 namespace tetflow {
+
+std::vector<int32_t> presentMaterials(const TetMesh& mesh) {
+  std::vector<int32_t> labels;
+  for (size_t t = 0; t < mesh.materials.size(); ++t)
+    if (t == 0 || mesh.materials[t] != mesh.materials[t - 1]) labels.push_back(mesh.materials[t]);
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  return labels;
+}
+
+std::vector<int32_t> labelsNamed(const std::map<int32_t, std::string>& names, const std::string& name) {
+  auto key = [](const std::string& s) {
+    std::string k;
+    for (unsigned char c : s) k += c == ' ' || c == '-' ? '_' : char(std::tolower(c));
+    return k;
+  };
+  const std::string want = key(name);
+  std::vector<int32_t> out;
+  for (const auto& [label, n] : names)
+    if (key(n) == want) out.push_back(label);
+  return out;
+}
 
 void TetMesh::validateStructure(const std::string& what) const {
   if (materials.size() != tets.size()) {

@@ -47,4 +47,11 @@ struct TetMesh {
   void validateStructure(const std::string& what) const;
 };
 
+// The distinct material labels of the mesh's tets, ascending.
+std::vector<int32_t> presentMaterials(const TetMesh& mesh);
+
+// The labels whose tissue name is `name`, ignoring case, and with spaces, '-' and '_' alike
+// ("Grey matter" is "grey_matter"); ascending, empty when none.
+std::vector<int32_t> labelsNamed(const std::map<int32_t, std::string>& names, const std::string& name);
+
 } // namespace tetflow

@@ -3,13 +3,15 @@
 
 #include <cctype>
 #include <charconv>
-#include <set>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/IO/HeaderText.h"
 
 namespace tetflow {
 
 namespace {
+
+std::string trimmed(const std::string& s) { return std::string(headertext::trim(s)); }
 
 struct Tissue {
   const char* name;
@@ -52,20 +54,6 @@ std::string key(const std::string& name) {
   return k;
 }
 
-bool isInteger(const std::string& s) {
-  int64_t v = 0;
-  const char* b = s.data();
-  if (!s.empty() && (s[0] == '+')) ++b;
-  auto r = std::from_chars(b, s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
-}
-
-std::string trim(const std::string& s) {
-  const size_t a = s.find_first_not_of(" \t");
-  if (a == std::string::npos) return {};
-  return s.substr(a, s.find_last_not_of(" \t") - a + 1);
-}
-
 } // namespace
 
 std::optional<double> literatureConductivity(const std::string& name, std::string* matched) {
@@ -84,20 +72,19 @@ std::vector<std::string> conductivityItemsByLabel(const std::vector<std::string>
   std::vector<std::string> out;
   for (const std::string& item : items) {
     const size_t colon = item.find(':');
-    const std::string head = trim(item.substr(0, colon == std::string::npos ? item.size() : colon));
+    const std::string head = trimmed(item.substr(0, colon == std::string::npos ? item.size() : colon));
+    // A label (or a malformed item, which the parser names) starts like a number; a name does not.
     double number = 0;
     const bool numeric = std::from_chars(head.data(), head.data() + head.size(), number).ptr != head.data();
-    if (colon == std::string::npos || head.empty() || isInteger(head) || numeric || head[0] == '+' || head[0] == '-') {
-      out.push_back(item); // a label (or a malformed item, which the parser names)
+    if (colon == std::string::npos || head.empty() || numeric || head[0] == '+' || head[0] == '-') {
+      out.push_back(item);
       continue;
     }
-    std::vector<int32_t> labels;
-    for (const auto& [L, n] : names)
-      if (key(n) == key(head)) labels.push_back(L);
+    const std::vector<int32_t> labels = labelsNamed(names, head);
     if (labels.empty()) {
       std::string known;
       for (const auto& [L, n] : names) known += (known.empty() ? "" : ", ") + n + " (" + std::to_string(L) + ")";
-      throw InputError("conductivities: entry '" + trim(item) + "': the mesh has no tissue called '" + head + "'" +
+      throw InputError("conductivities: entry '" + trimmed(item) + "': the mesh has no tissue called '" + head + "'" +
                        (known.empty() ? std::string("; its materials have no names: give labels instead")
                                       : "; its tissues are " + known));
     }
@@ -107,12 +94,8 @@ std::vector<std::string> conductivityItemsByLabel(const std::vector<std::string>
 }
 
 std::map<int32_t, std::string> completeConductivities(ConductivityTable& table, const TetMesh& mesh, bool byName) {
-  std::set<int32_t> present;
-  int32_t last = 0;
-  for (size_t t = 0; t < mesh.materials.size(); ++t)
-    if (t == 0 || mesh.materials[t] != last) present.insert(last = mesh.materials[t]);
   std::map<int32_t, std::string> source;
-  for (int32_t L : present) {
+  for (int32_t L : presentMaterials(mesh)) {
     if (table.byLabel.count(L)) {
       source[L] = "parameter";
     } else if (auto it = mesh.materialConductivities.find(L); it != mesh.materialConductivities.end()) {

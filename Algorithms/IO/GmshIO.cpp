@@ -113,9 +113,7 @@ std::vector<Group> physicalGroups(const std::string& path, const TetMesh& m, boo
   if (collectTets) {
     for (size_t t = 0; t < m.numTets(); ++t) byLabel[m.materials[t]].push_back(t);
   } else {
-    int32_t last = 0;
-    for (size_t t = 0; t < m.numTets(); ++t)
-      if (t == 0 || m.materials[t] != last) byLabel[last = m.materials[t]];
+    for (int32_t L : presentMaterials(m)) byLabel[L];
   }
   int64_t maxLabel = 0;
   for (const auto& [label, tets] : byLabel) maxLabel = std::max<int64_t>(maxLabel, label);

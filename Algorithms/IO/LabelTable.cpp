@@ -10,16 +10,12 @@
 
 #include "../Core/Errors.h"
 #include "FileUtil.h"
+#include "HeaderText.h"
 
 namespace tetflow {
 
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
 
 std::vector<std::string_view> whitespaceTokens(std::string_view l) {
   std::vector<std::string_view> t;
@@ -91,7 +87,7 @@ std::vector<std::string> fields(std::string_view l, char sep) {
       out.back() += c;
     }
   }
-  for (auto& f : out) f = std::string(trim(f));
+  for (auto& f : out) f = std::string(headertext::trim(f));
   return out;
 }
 
@@ -120,7 +116,7 @@ LabelTable readLabelTable(const std::string& path) {
   while (pos < text.size()) {
     size_t end = text.find('\n', pos);
     if (end == std::string_view::npos) end = text.size();
-    const std::string_view l = trim(text.substr(pos, end - pos));
+    const std::string_view l = headertext::trim(text.substr(pos, end - pos));
     pos = end + 1;
     ++line;
     if (l.empty() || l[0] == '#') continue;

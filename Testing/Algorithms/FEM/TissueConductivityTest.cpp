@@ -40,6 +40,9 @@ TEST(TissueConductivity, NamesInTheListBecomeLabels) {
   EXPECT_THROW_MSG(conductivityItemsByLabel({"brain:0.33"}, names), InputError, "'brain:0.33'",
                    "no tissue called 'brain'", "scalp (1), skull (2), CSF (3)");
   EXPECT_THROW_MSG(conductivityItemsByLabel({"brain:0.33"}, {}), InputError, "give labels instead");
+  // A mesh's own names match whole (case, spaces, '-' and '_' aside): a hemisphere stays itself.
+  const std::map<int32_t, std::string> fs{{2, "Left-Cerebral-White-Matter"}, {41, "Right-Cerebral-White-Matter"}};
+  EXPECT_EQ(conductivityItemsByLabel({"left cerebral_white matter:0.2"}, fs), (std::vector<std::string>{"2:0.2"}));
 }
 
 TEST(TissueConductivity, ParameterThenLabelTableThenLiteratureThenDefault) {
