@@ -24,7 +24,7 @@ packages=(
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev
   libocct-data-exchange-dev libocct-ocaf-dev libocct-visualization-dev
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core mricron-data
-  gmsh python3-meshio
+  gmsh python3-meshio python3-nibabel
 )
 # --deps-only PKG...: these too (scripts/fuzz.sh passes clang's).
 if [ "${1:-}" = "--deps-only" ]; then packages+=("${@:2}"); fi

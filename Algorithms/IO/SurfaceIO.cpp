@@ -14,8 +14,8 @@ using namespace mesh_io;
 void writeTriangleSurface(const std::string& path, const std::vector<Vec3>& points,
                           const std::vector<std::array<int32_t, 3>>& triangles) {
   const std::string ext = fileExtension(path);
-  if (ext != ".off" && ext != ".stl" && ext != ".vtp")
-    throw InputError(path + ": unknown surface file extension '" + ext + "'; supported: .off, .stl, .vtp");
+  if (ext != ".off" && ext != ".stl" && ext != ".vtp" && ext != ".surf")
+    throw InputError(path + ": unknown surface file extension '" + ext + "'; supported: .off, .stl, .vtp, .surf");
   AtomicOutputFile out(path);
   {
     TextSink s(out.stream());
@@ -56,6 +56,28 @@ void writeTriangleSurface(const std::string& path, const std::vector<Vec3>& poin
         s.bytes(rec, sizeof rec);
         s.bytes(&attributes, 2);
       }
+    } else if (ext == ".surf") {
+      // FreeSurfer triangle surface: magic FF FF FE, a creator line and an empty line, then
+      // big-endian int32 counts, float32 x y z per vertex, int32 corners per triangle.
+      const unsigned char magic[3] = {0xFF, 0xFF, 0xFE};
+      s.bytes(magic, 3);
+      s << "created by TetFlow ExtractSurfaces\n\n";
+      auto big32 = [&](uint32_t v) {
+        const unsigned char b[4] = {static_cast<unsigned char>(v >> 24), static_cast<unsigned char>(v >> 16),
+                                    static_cast<unsigned char>(v >> 8), static_cast<unsigned char>(v)};
+        s.bytes(b, 4);
+      };
+      big32(uint32_t(points.size()));
+      big32(uint32_t(triangles.size()));
+      for (const Vec3& p : points)
+        for (int k = 0; k < 3; ++k) {
+          const float f = float(p[k]);
+          uint32_t u = 0;
+          std::memcpy(&u, &f, 4);
+          big32(u);
+        }
+      for (const auto& t : triangles)
+        for (int k = 0; k < 3; ++k) big32(uint32_t(t[size_t(k)]));
     } else {
       s << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\">\n"
            "  <PolyData>\n    <Piece NumberOfPoints=\"";

@@ -2,7 +2,9 @@
 // Triangle surfaces (the BEM surfaces of ExtractSurfaces) to files, by extension, atomically:
 //   .off  Object File Format, ASCII (read by OpenMEEG, MeshLab, CGAL, meshio);
 //   .stl  binary STL, float coordinates, each facet's normal from its corners;
-//   .vtp  VTK XML PolyData, ASCII (ParaView, VTK).
+//   .vtp  VTK XML PolyData, ASCII (ParaView, VTK);
+//   .surf FreeSurfer triangle surface, binary big-endian, float coordinates (what MNE's BEM
+//         surfaces are: mne.read_surface, mne.make_bem_model; nibabel reads it too).
 // Coordinates in mm, 17 significant digits in the text formats. InputError naming the file for
 // an unknown extension or an unwritable folder.
 #include <array>

@@ -6,14 +6,25 @@
 #include <unordered_map>
 
 #include "Algorithms/Quality/LabelTopology.h"
+#include "Algorithms/SurfaceMeshing/SurfaceIntersections.h"
 
 namespace tetflow {
 
 
-TriSurface unionBoundary(const TetMesh& mesh, const std::vector<int32_t>& materials, const std::vector<int32_t>& nb) {
+std::vector<uint8_t> materialMask(const TetMesh& mesh, const std::vector<int32_t>& materials) {
   std::vector<int32_t> sorted = materials;
   std::sort(sorted.begin(), sorted.end());
-  auto inside = [&](int32_t t) { return std::binary_search(sorted.begin(), sorted.end(), mesh.materials[size_t(t)]); };
+  std::vector<uint8_t> inside(mesh.numTets());
+  for (size_t t = 0; t < mesh.numTets(); ++t)
+    inside[t] = std::binary_search(sorted.begin(), sorted.end(), mesh.materials[t]) ? 1 : 0;
+  return inside;
+}
+
+TriSurface unionBoundary(const TetMesh& mesh, const std::vector<int32_t>& materials, const std::vector<int32_t>& nb) {
+  return maskBoundary(mesh, materialMask(mesh, materials), nb);
+}
+
+TriSurface maskBoundary(const TetMesh& mesh, const std::vector<uint8_t>& inside, const std::vector<int32_t>& nb) {
   TriSurface s;
   std::unordered_map<int32_t, int32_t> index;
   auto point = [&](int32_t v) {
@@ -25,11 +36,11 @@ TriSurface unionBoundary(const TetMesh& mesh, const std::vector<int32_t>& materi
     return it->second;
   };
   for (size_t t = 0; t < mesh.numTets(); ++t) {
-    if (!inside(int32_t(t))) continue;
+    if (!inside[t]) continue;
     const auto& q = mesh.tets[t];
     for (int f = 0; f < 4; ++f) {
       const int32_t o = nb[4 * t + size_t(f)];
-      if (o >= 0 && inside(o)) continue;
+      if (o >= 0 && inside[size_t(o)]) continue;
       int32_t a = q[size_t(kTetFaceVertices[f][0])], b = q[size_t(kTetFaceVertices[f][1])], c = q[size_t(kTetFaceVertices[f][2])];
       const Vec3 &pa = mesh.points[size_t(a)], &pb = mesh.points[size_t(b)], &pc = mesh.points[size_t(c)];
       if (dot(cross(pb - pa, pc - pa), mesh.points[size_t(q[size_t(f)])] - pa) > 0) std::swap(b, c); // outward
@@ -39,7 +50,7 @@ TriSurface unionBoundary(const TetMesh& mesh, const std::vector<int32_t>& materi
   return s;
 }
 
-SurfaceCheck checkSurface(const TriSurface& s) {
+SurfaceCheck checkSurface(const TriSurface& s, std::vector<int32_t>* defective) {
   SurfaceCheck c;
   c.triangles = int64_t(s.triangles.size());
   c.vertices = int64_t(s.points.size());
@@ -71,7 +82,13 @@ SurfaceCheck checkSurface(const TriSurface& s) {
     }
     const size_t n = j - i;
     if (n == 1) ++c.openEdges;
-    else if (n > 2) ++c.nonManifoldEdges;
+    else if (n > 2) {
+      ++c.nonManifoldEdges;
+      if (defective) {
+        defective->push_back(edges[i].lo);
+        defective->push_back(edges[i].hi);
+      }
+    }
     else if (edges[i].forward == edges[i + 1].forward) ++c.misorientedEdges;
     i = j;
   }
@@ -81,7 +98,8 @@ SurfaceCheck checkSurface(const TriSurface& s) {
   std::vector<std::vector<std::array<int32_t, 2>>> link(s.points.size());
   for (const auto& t : s.triangles)
     for (int k = 0; k < 3; ++k) link[size_t(t[size_t(k)])].push_back({t[size_t((k + 1) % 3)], t[size_t((k + 2) % 3)]});
-  for (const auto& l : link) {
+  for (size_t p = 0; p < link.size(); ++p) {
+    const auto& l = link[p];
     if (l.size() < 2) continue;
     std::vector<int32_t> ends;
     for (const auto& e : l) {
@@ -95,7 +113,14 @@ SurfaceCheck checkSurface(const TriSurface& s) {
     for (const auto& e : l) u.unite(at(e[0]), at(e[1]));
     int fans = 0;
     for (size_t k = 0; k < ends.size(); ++k) fans += u.find(int32_t(k)) == int32_t(k);
-    if (fans > 1) ++c.nonManifoldVertices;
+    if (fans > 1) {
+      ++c.nonManifoldVertices;
+      if (defective) defective->push_back(int32_t(p));
+    }
+  }
+  if (defective) {
+    std::sort(defective->begin(), defective->end());
+    defective->erase(std::unique(defective->begin(), defective->end()), defective->end());
   }
   return c;
 }
@@ -107,6 +132,22 @@ int64_t sharedVertices(const TriSurface& a, const TriSurface& b) {
   std::vector<int32_t> both;
   std::set_intersection(x.begin(), x.end(), y.begin(), y.end(), std::back_inserter(both));
   return int64_t(both.size());
+}
+
+int64_t selfIntersections(const TriSurface& s, size_t atMost) {
+  return int64_t(surfaceIntersections(s.points, s.triangles, atMost).size());
+}
+
+int64_t crossingPairs(const TriSurface& a, const TriSurface& b, size_t atMost) {
+  std::vector<Vec3> points = a.points;
+  points.insert(points.end(), b.points.begin(), b.points.end());
+  std::vector<std::array<int32_t, 3>> triangles = a.triangles;
+  const int32_t offset = int32_t(a.points.size());
+  for (const auto& t : b.triangles) triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  int64_t between = 0;
+  for (const SurfaceIntersection& x : surfaceIntersections(points, triangles, atMost))
+    between += (size_t(x.a) < a.triangles.size()) != (size_t(x.b) < a.triangles.size());
+  return between;
 }
 
 } // namespace tetflow

@@ -32,6 +32,10 @@ struct TriSurface {
 };
 
 TriSurface unionBoundary(const TetMesh& mesh, const std::vector<int32_t>& materials, const std::vector<int32_t>& faceNeighbours);
+// The same for any set of tets: inside[t] != 0 for the tets of the union.
+TriSurface maskBoundary(const TetMesh& mesh, const std::vector<uint8_t>& inside, const std::vector<int32_t>& faceNeighbours);
+// inside[t] = 1 where the tet's material is one of `materials`.
+std::vector<uint8_t> materialMask(const TetMesh& mesh, const std::vector<int32_t>& materials);
 
 struct SurfaceCheck {
   int64_t triangles = 0, vertices = 0;
@@ -47,8 +51,18 @@ struct SurfaceCheck {
   }
 };
 
-SurfaceCheck checkSurface(const TriSurface& s);
+// defective (if given) receives, ascending, the points that make the surface non-manifold: those
+// whose triangles form more than one fan and the ends of edges in more than two triangles.
+SurfaceCheck checkSurface(const TriSurface& s, std::vector<int32_t>* defective = nullptr);
 
 int64_t sharedVertices(const TriSurface& a, const TriSurface& b);
+
+// Geometric crossings (SurfaceMeshing/SurfaceIntersections.h: touching counts; triangles sharing
+// a vertex or an edge only where they fold over it), counted up to `atMost` pairs: within one
+// surface, and between two (the pairs of the two taken together that have one triangle in each;
+// self-crossings of either, if any, are counted first toward atMost). Two surfaces cut from one
+// conforming mesh never cross; smoothed or decimated ones could.
+int64_t selfIntersections(const TriSurface& s, size_t atMost = 1000);
+int64_t crossingPairs(const TriSurface& a, const TriSurface& b, size_t atMost = 1000);
 
 } // namespace tetflow

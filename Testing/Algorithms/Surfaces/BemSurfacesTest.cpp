@@ -95,7 +95,7 @@ TEST(BemSurfaces, RandomBlobsEncloseTheirVolumeAndPinchesAreFound) {
   EXPECT_EQ(c.components, 2);
 }
 
-TEST(BemSurfaces, WrittenFilesAreReadByMeshio) {
+TEST(BemSurfaces, WrittenFilesAreReadByMeshioAndNibabel) {
   ASSERT_EQ(std::system("/usr/bin/python3 -c 'import meshio' > /dev/null 2>&1"), 0)
       << "meshio is missing: scripts/setup.sh installs it (Debian package python3-meshio)";
   const TetMesh m = test::voxelMesh(boxes(6));
@@ -113,12 +113,35 @@ TEST(BemSurfaces, WrittenFilesAreReadByMeshio) {
     text << in.rdbuf();
     EXPECT_EQ(text.str(), std::to_string(s.triangles.size()) + "\n") << name;
   }
+  // FreeSurfer's format (MNE's BEM surfaces), read back by nibabel: same points (float) and triangles.
+  ASSERT_EQ(std::system("/usr/bin/python3 -c 'import nibabel' > /dev/null 2>&1"), 0)
+      << "nibabel is missing: scripts/setup.sh installs it (Debian package python3-nibabel)";
+  writeTriangleSurface(dir.file("s.surf"), s.points, s.triangles);
+  {
+    const std::string out = dir.file("surf.txt");
+    const std::string cmd = "/usr/bin/python3 -c \"import nibabel.freesurfer as fs; v, f = fs.read_geometry('" +
+                            dir.file("s.surf") +
+                            "'); print(len(v), len(f)); print(' '.join('%.9g' % x for x in v[1])); print(*f[-1])\" > '" +
+                            out + "' 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    std::ifstream in(out);
+    size_t nv = 0, nf = 0;
+    double x = 0, y = 0, z = 0;
+    int a = -1, b = -1, c = -1;
+    in >> nv >> nf >> x >> y >> z >> a >> b >> c;
+    EXPECT_EQ(nv, s.points.size());
+    EXPECT_EQ(nf, s.triangles.size());
+    EXPECT_EQ(x, double(float(s.points[1][0])));
+    EXPECT_EQ(y, double(float(s.points[1][1])));
+    EXPECT_EQ(z, double(float(s.points[1][2])));
+    EXPECT_EQ((std::array<int32_t, 3>{a, b, c}), s.triangles.back());
+  }
   writeTriangleSurface(dir.file("s.vtp"), s.points, s.triangles);
   std::ifstream vtp(dir.file("s.vtp"));
   std::stringstream text;
   text << vtp.rdbuf();
   EXPECT_NE(text.str().find("NumberOfPolys=\"" + std::to_string(s.triangles.size()) + "\""), std::string::npos);
-  EXPECT_THROW_MSG(writeTriangleSurface(dir.file("s.ply"), s.points, s.triangles), InputError, "s.ply", ".off, .stl, .vtp");
+  EXPECT_THROW_MSG(writeTriangleSurface(dir.file("s.ply"), s.points, s.triangles), InputError, "s.ply", ".off, .stl, .vtp, .surf");
 }
 
 } // namespace
