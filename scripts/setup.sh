@@ -24,7 +24,7 @@ packages=(
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev
   libocct-data-exchange-dev libocct-ocaf-dev libocct-visualization-dev
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core mricron-data
-  gmsh python3-meshio python3-nibabel
+  gmsh python3-meshio python3-nibabel python3-mne
 )
 # --deps-only PKG...: these too (scripts/fuzz.sh passes clang's).
 if [ "${1:-}" = "--deps-only" ]; then packages+=("${@:2}"); fi
@@ -80,7 +80,8 @@ case "${1:-}" in
       # particle and lead-field tests).
       heavy='^(Nets\.(adaptive_particles|adaptive_head|eeg_leadfield|TheHeadNetsPassTheirCertificatesOnALayeredHead|ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes)'
       heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
-      heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation)$'
+      heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation'
+      heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes)$' # Nets.bem_head runs its net here
       exec ctest --output-on-failure -j "$JOBS" -E "$heavy" "$@"
     fi
     ;;
