@@ -89,6 +89,9 @@ MainWindow::~MainWindow() {
 
 void MainWindow::createDocks() {
   setDockNestingEnabled(true);
+  // The left column (palette over parameters) runs the window's full height; the log and report
+  // sit under the canvas and the 3D view.
+  setCorner(Qt::BottomLeftCorner, Qt::LeftDockWidgetArea);
   palette_ = new ModulePalette(registry_);
   auto* palDock = new QDockWidget(tr("Modules"), this);
   palDock->setObjectName("modules");
@@ -130,8 +133,10 @@ void MainWindow::createDocks() {
   addDockWidget(Qt::BottomDockWidgetArea, reportDock_);
   tabifyDockWidget(logDock_, reportDock_);
   logDock_->raise();
-  resizeDocks({palDock, viewDock_}, {230, 520}, Qt::Horizontal);
-  resizeDocks({palDock, parDock}, {250, 350}, Qt::Vertical);
+  // Wide enough for every module's names and values side by side; the palette short (it has a
+  // filter), the parameters tall enough for the longest module without scrolling.
+  resizeDocks({palDock, viewDock_}, {params_->preferredWidth(registry_), 520}, Qt::Horizontal);
+  resizeDocks({palDock, parDock}, {170, 630}, Qt::Vertical);
   resizeDocks({logDock_}, {210}, Qt::Vertical);
 }
 

@@ -68,6 +68,13 @@ const LabelVolume* volumeOf(const DataPtr& d) {
   auto* v = dynamic_cast<const LabelVolumeData*>(d.get());
   return v ? &v->value : nullptr;
 }
+
+// The q-quantile (0..1) of v (nearest rank); v is reordered. v must not be empty.
+double quantile(std::vector<double>& v, double q) {
+  const size_t k = std::min(v.size() - 1, size_t(std::floor(q * double(v.size() - 1) + 0.5)));
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
+  return v[k];
+}
 } // namespace
 
 MeshView::MeshView(QWidget* parent) : QWidget(parent) {
@@ -76,6 +83,12 @@ MeshView::MeshView(QWidget* parent) : QWidget(parent) {
   auto* bar = new QHBoxLayout;
   colorBy_ = new QComboBox;
   colorBy_->setToolTip(tr("Colour the surface by material or by a field"));
+  scaleBox_ = new QComboBox;
+  scaleBox_->addItems({"linear", "diverging", "log"}); // the order of ColorScale
+  scaleBox_->setToolTip(tr("Colour scale of the field: linear (min to max), diverging (blue-white-red, "
+                           "symmetric about 0, for signed fields such as potentials) or log (for "
+                           "magnitudes such as |∇u| or current density). Chosen by the field's kind; "
+                           "a choice here is kept for the field"));
   edges_ = new QCheckBox(tr("Edges"));
   clip_ = new QCheckBox(tr("Clip"));
   clip_->setToolTip(tr("Clipping plane: removes the tets on one side to show the inside"));
@@ -86,15 +99,20 @@ MeshView::MeshView(QWidget* parent) : QWidget(parent) {
   clipPos_->setValue(500);
   clipFlip_ = new QCheckBox(tr("Flip"));
   reset_ = new QPushButton(tr("Reset camera"));
+  // Two rows: colour (field, scale, edges, camera), then the clipping plane.
   bar->addWidget(new QLabel(tr("Colour")));
   bar->addWidget(colorBy_, 1);
+  bar->addWidget(scaleBox_);
   bar->addWidget(edges_);
-  bar->addWidget(clip_);
-  bar->addWidget(clipAxis_);
-  bar->addWidget(clipPos_, 1);
-  bar->addWidget(clipFlip_);
   bar->addWidget(reset_);
   lay->addLayout(bar);
+  auto* clipBar = new QHBoxLayout;
+  clipPos_->setMinimumWidth(120);
+  clipBar->addWidget(clip_);
+  clipBar->addWidget(clipAxis_);
+  clipBar->addWidget(clipPos_, 1);
+  clipBar->addWidget(clipFlip_);
+  lay->addLayout(clipBar);
   auto* mid = new QHBoxLayout;
   vtk_ = new VtkWidget;
   legend_ = new QListWidget;
@@ -104,6 +122,7 @@ MeshView::MeshView(QWidget* parent) : QWidget(parent) {
   mid->addWidget(legend_);
   lay->addLayout(mid, 1);
   status_ = new QLabel;
+  status_->setWordWrap(true); // a long line wraps instead of widening the window
   lay->addWidget(status_);
 
   plane_.keepAbove = true; // keep the far half: the cut faces the default camera
@@ -126,7 +145,7 @@ MeshView::MeshView(QWidget* parent) : QWidget(parent) {
   scalarBar_->SetNumberOfLabels(5);
   scalarBar_->SetWidth(0.12);
   scalarBar_->SetHeight(0.6);
-  scalarBar_->SetPosition(0.80, 0.15);
+  scalarBar_->SetPosition(0.74, 0.15); // its labels, to the right of the bar, stay in a narrow view
   scalarBar_->UnconstrainedFontSizeOn();
   scalarBar_->GetTitleTextProperty()->SetFontSize(14);
   scalarBar_->GetTitleTextProperty()->SetJustificationToCentered();
@@ -144,6 +163,9 @@ MeshView::MeshView(QWidget* parent) : QWidget(parent) {
 
   connect(colorBy_, &QComboBox::currentTextChanged, this, [this](const QString& t) {
     if (!syncing_) setColorBy(t);
+  });
+  connect(scaleBox_, &QComboBox::currentIndexChanged, this, [this](int i) {
+    if (!syncing_ && i >= 0) setColorScale(ColorScale(i));
   });
   connect(edges_, &QCheckBox::toggled, this, [this](bool on) {
     if (!syncing_) setEdgesVisible(on);
@@ -269,6 +291,8 @@ void MeshView::syncControls() {
   else colorBy_->addItem("material");
   colorBy_->setCurrentText(colorField_);
   colorBy_->setEnabled(m != nullptr);
+  scaleBox_->setCurrentIndex(int(scale_));
+  scaleBox_->setEnabled(m != nullptr && colorField_ != "material");
   edges_->setEnabled(m != nullptr);
   edges_->setChecked(edgesOn_);
   clip_->setText(volumeOf(data_) ? tr("Slice") : tr("Clip"));
@@ -302,14 +326,21 @@ void MeshView::rebuildMesh() {
   poly_->SetPolys(cells);
   cells->Delete();
   actor_->SetVisibility(!faces_.faces.empty());
-  updateColors();
-  status_->setText(tr("%1: %2 tets, %3 vertices, %4 materials; %5 faces shown")
-                       .arg(title_)
-                       .arg(m->numTets())
-                       .arg(m->numPoints())
-                       .arg(topo_.labels.size())
-                       .arg(faces_.faces.size()));
+  meshStatus_ = tr("%1: %2 tets, %3 vertices, %4 materials; %5 faces shown")
+                    .arg(title_)
+                    .arg(m->numTets())
+                    .arg(m->numPoints())
+                    .arg(topo_.labels.size())
+                    .arg(faces_.faces.size());
+  updateColors(); // also the status line
   vtk_->update();
+}
+
+MeshView::ColorScale MeshView::automaticScale(const QString& field, bool magnitude, double lo, double hi) {
+  magnitude = magnitude || field.endsWith("magnitude") || field.endsWith("current_density");
+  if (magnitude && lo >= 0 && hi > 0) return ColorScale::Log;
+  if (lo < 0 && hi > 0) return ColorScale::Diverging;
+  return ColorScale::Linear;
 }
 
 void MeshView::updateColors() {
@@ -321,6 +352,7 @@ void MeshView::updateColors() {
   poly_->GetCellData()->SetScalars(nullptr);
   poly_->GetPointData()->SetScalars(nullptr);
   actor_->GetProperty()->SetEdgeVisibility(edgesOn_);
+  shownValues_.clear();
   if (choice.kind == kMaterial) {
     vtkUnsignedCharArray* rgb = vtkUnsignedCharArray::New();
     rgb->SetNumberOfComponents(3);
@@ -337,6 +369,8 @@ void MeshView::updateColors() {
     mapper_->SetScalarModeToUseCellData();
     mapper_->SetColorModeToDirectScalars();
     scalarBar_->VisibilityOff();
+    scaleBox_->setEnabled(false);
+    status_->setText(meshStatus_);
     poly_->Modified();
     return;
   }
@@ -363,30 +397,117 @@ void MeshView::updateColors() {
       hi = std::max(hi, v);
     }
   if (lo > hi) lo = hi = 0;
-  if (hi <= lo) hi = lo + 1e-12;
+  // The values on the surface shown (they set the diverging and log ranges).
+  if (pointData) {
+    std::vector<char> seen(values->size(), 0);
+    for (const auto& f : faces_.faces)
+      for (int v : f)
+        if (!seen[size_t(v)]) {
+          seen[size_t(v)] = 1;
+          shownValues_.push_back((*values)[size_t(v)]);
+        }
+  } else {
+    for (int t : faces_.tet) shownValues_.push_back((*values)[size_t(t)]);
+  }
+  std::vector<double> finite;
+  finite.reserve(shownValues_.size());
+  for (double v : shownValues_)
+    if (std::isfinite(v)) finite.push_back(v);
+
+  auto chosen = scaleChosen_.find(colorField_);
+  scale_ = chosen != scaleChosen_.end() ? chosen->second : automaticScale(choice.label, choice.kind == kGradient, lo, hi);
+  QString note;
+  double a = lo, b = hi;
+  if (scale_ == ColorScale::Log) {
+    std::vector<double> pos;
+    for (double v : finite)
+      if (v > 0) pos.push_back(v);
+    if (pos.empty())
+      for (double v : *values)
+        if (std::isfinite(v) && v > 0) pos.push_back(v);
+    if (pos.empty()) {
+      note = tr("log scale: no positive values, shown linear");
+    } else {
+      b = *std::max_element(pos.begin(), pos.end());
+      a = std::max(quantile(pos, 0.02), b * 1e-6);
+      if (a >= b) a = b / 10;
+      note = tr("log scale %1 to %2 (2nd percentile of the shown values > 0 to max)").arg(a, 0, 'g', 3).arg(b, 0, 'g', 3);
+    }
+  } else if (scale_ == ColorScale::Diverging) {
+    std::vector<double> mag;
+    for (double v : finite) mag.push_back(std::abs(v));
+    double r = mag.empty() ? 0.0 : quantile(mag, 0.98);
+    if (!(r > 0)) r = std::max(std::abs(lo), std::abs(hi));
+    if (!(r > 0)) r = 1e-12;
+    a = -r;
+    b = r;
+    note = tr("diverging scale ±%1 (98th percentile of |value| shown; all: %2 to %3)")
+               .arg(r, 0, 'g', 3).arg(lo, 0, 'g', 3).arg(hi, 0, 'g', 3);
+  }
+  const bool log = scale_ == ColorScale::Log && b > a && a > 0;
+  if (!log && scale_ != ColorScale::Diverging) {
+    a = lo;
+    b = hi;
+  }
+  if (b <= a) b = a + 1e-12;
+  range_ = {a, b};
+
   vtkDoubleArray* arr = vtkDoubleArray::New();
   arr->SetName(choice.label.toUtf8().constData());
+  // Log: zeros and values below the range take the bottom colour.
+  auto shown = [&](double v) { return log && !(v >= a) ? a : v; };
   if (pointData) {
     arr->SetNumberOfTuples(vtkIdType(values->size()));
-    for (size_t i = 0; i < values->size(); ++i) arr->SetValue(vtkIdType(i), (*values)[i]);
+    for (size_t i = 0; i < values->size(); ++i) arr->SetValue(vtkIdType(i), shown((*values)[i]));
     poly_->GetPointData()->SetScalars(arr);
     mapper_->SetScalarModeToUsePointData();
   } else {
     arr->SetNumberOfTuples(vtkIdType(faces_.tet.size()));
-    for (size_t i = 0; i < faces_.tet.size(); ++i) arr->SetValue(vtkIdType(i), (*values)[size_t(faces_.tet[i])]);
+    for (size_t i = 0; i < faces_.tet.size(); ++i) arr->SetValue(vtkIdType(i), shown((*values)[size_t(faces_.tet[i])]));
     poly_->GetCellData()->SetScalars(arr);
     mapper_->SetScalarModeToUseCellData();
   }
   arr->Delete();
-  lut_->SetTableRange(lo, hi);
-  lut_->Build();
+  lut_->SetNumberOfTableValues(256);
+  if (scale_ == ColorScale::Diverging) {
+    // Blue - white - red (Moreland's cool-warm end points), linear in RGB on each half.
+    const double cold[3] = {0.23, 0.30, 0.75}, mid[3] = {0.95, 0.95, 0.95}, warm[3] = {0.71, 0.02, 0.15};
+    lut_->SetScaleToLinear();
+    for (int i = 0; i < 256; ++i) {
+      const double t = i / 255.0;
+      const double* e = t < 0.5 ? cold : warm;
+      const double w = t < 0.5 ? 1 - 2 * t : 2 * t - 1; // weight of the end colour
+      lut_->SetTableValue(i, mid[0] + w * (e[0] - mid[0]), mid[1] + w * (e[1] - mid[1]), mid[2] + w * (e[2] - mid[2]), 1.0);
+    }
+  } else {
+    if (log) lut_->SetScaleToLog10();
+    else lut_->SetScaleToLinear();
+    lut_->SetHueRange(0.667, 0.0);
+    lut_->SetSaturationRange(1, 1);
+    lut_->SetValueRange(1, 1);
+    lut_->ForceBuild();
+  }
+  lut_->SetTableRange(a, b);
   mapper_->SetLookupTable(lut_);
   mapper_->UseLookupTableScalarRangeOn();
   mapper_->SetColorModeToMapScalars();
   mapper_->ScalarVisibilityOn();
+  scalarBar_->SetLookupTable(lut_);
   scalarBar_->SetTitle(choice.label.toUtf8().constData());
   scalarBar_->VisibilityOn();
+  syncing_ = true;
+  scaleBox_->setCurrentIndex(int(scale_));
+  scaleBox_->setEnabled(true);
+  syncing_ = false;
+  status_->setText(meshStatus_ + (note.isEmpty() ? QString() : "; " + choice.label + ": " + note));
   poly_->Modified();
+}
+
+void MeshView::setColorScale(ColorScale scale) {
+  if (colorField_ == "material") return;
+  scaleChosen_[colorField_] = scale;
+  updateColors();
+  vtk_->update();
 }
 
 void MeshView::rebuildVolume() {

@@ -5,14 +5,22 @@
 // names and colours; tick a material off to hide it), or by a field with a scalar bar: every
 // 1-component cell field (min_dihedral … from EvaluateQuality), "min_dihedral" computed here
 // when the mesh has none, every 1-component point field (e.g. potential) and |∇| of it per tet.
+// Field colour scales: linear (rainbow over the field's min..max), diverging (blue-white-red,
+// symmetric about 0, ±the 98th percentile of |value| on the shown surface) for signed fields such
+// as a dipole's potential, log10 (rainbow from the 2nd percentile of the shown positive values to
+// their maximum; zeros take the bottom colour) for magnitudes (|∇u|, grad_magnitude,
+// current_density). The scale follows the field's kind when a field is chosen; the Scale box
+// overrides it for that field.
 // A clipping plane (axis, position, side) removes whole tets so the inside shows; element edges
 // on/off; reset camera.
 // LabelVolume: three orthogonal slices through the volume coloured by label (the clip axis and
 // position move the slice of that axis); hidden labels are transparent (label 0 starts hidden).
 #include <QWidget>
 
+#include <array>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include "Dataflow/PortTypes.h"
 #include "MeshSurface.h"
@@ -50,8 +58,15 @@ public:
   void showData(const DataPtr& data, const std::map<int, QString>& labelNames, const QString& title);
   void clearData(const QString& message);
 
+  enum class ColorScale { Linear = 0, Diverging = 1, Log = 2 };
+  // The scale a field gets unless the user picks another: log for magnitudes (magnitude = |∇| of
+  // a point field, or a name ending in "magnitude" or "current_density") without negative values,
+  // diverging for fields with both signs, else linear. lo/hi: the field's finite min and max.
+  static ColorScale automaticScale(const QString& field, bool magnitude, double lo, double hi);
+
   // Controls (also driven by the widgets).
   void setColorBy(const QString& field); // "material" or a field name from colorChoices()
+  void setColorScale(ColorScale scale);  // for the field shown now (kept for it)
   QStringList colorChoices() const;
   void setEdgesVisible(bool on);
   // fraction 0..1 of the bounding box along `axis`; keepAbove keeps tets with centroid >= plane.
@@ -65,6 +80,12 @@ public:
   std::vector<int> materialLabels() const;
   bool scalarBarVisible() const;
   QListWidget* legend() const { return legend_; }
+  ColorScale colorScale() const { return scale_; }         // in effect for the field shown
+  std::array<double, 2> colorRange() const { return range_; } // the lookup table's range
+  vtkLookupTable* lookupTable() const { return lut_; }
+  QComboBox* scaleBox() const { return scaleBox_; }
+  // The field values on the shown surface (per vertex of a shown face, or per shown face).
+  const std::vector<double>& shownValues() const { return shownValues_; }
   const DataPtr& data() const { return data_; }
   QString statusText() const; // the line under the view (what is shown, or why nothing is)
 
@@ -78,6 +99,7 @@ private:
 
   VtkWidget* vtk_;
   QComboBox* colorBy_;
+  QComboBox* scaleBox_;
   QCheckBox* edges_;
   QCheckBox* clip_;
   QComboBox* clipAxis_;
@@ -97,6 +119,11 @@ private:
   ClipPlane plane_;
   double clipFraction_ = 0.5;
   QString colorField_ = "material";
+  std::map<QString, ColorScale> scaleChosen_; // the user's scale per field
+  ColorScale scale_ = ColorScale::Linear;
+  std::array<double, 2> range_{0, 1};
+  std::vector<double> shownValues_;
+  QString meshStatus_;
   bool edgesOn_ = false;
   bool syncing_ = false;
 

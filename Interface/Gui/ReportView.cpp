@@ -152,6 +152,7 @@ ReportView::ReportView(QWidget* parent) : QWidget(parent) {
   auto* lay = new QVBoxLayout(this);
   lay->setContentsMargins(2, 2, 2, 2);
   title_ = new QLabel(tr("Select a module to see its report"));
+  title_->setWordWrap(true); // a long error message wraps instead of widening the window
   auto* split = new QSplitter(Qt::Horizontal);
   table_ = new QTableWidget(0, 2);
   table_->setHorizontalHeaderLabels({tr("key"), tr("value")});

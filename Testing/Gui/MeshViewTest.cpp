@@ -1,15 +1,22 @@
 // The 3D view (VTK in a QOpenGLWidget). Runs under xvfb-run (Qt's offscreen platform cannot host
 // a QOpenGLWidget, PLATFORM.md): rendered-pixel checks (known background colour present and a fair
 // share of other pixels), material toggles, clipping, field colouring, label-volume slices,
-// re-creation of the GL context when the dock floats, and the main window showing the mesh of a
-// CleaveMesh module after execution.
+// re-creation of the GL context when the dock floats, the main window showing the mesh of a
+// CleaveMesh module after execution, colour scales (diverging, log), and every shipped net's
+// parameter values shown whole at the default window size beside the 3D view.
+#include <QComboBox>
+#include <QDir>
 #include <QDockWidget>
 #include <QImage>
 #include <QListWidget>
 #include <QStandardPaths>
+#include <QTemporaryDir>
 #include <QtTest>
 
+#include <algorithm>
 #include <cmath>
+
+#include <vtkLookupTable.h>
 
 #include "Interface/Gui/Canvas.h"
 #include "Interface/Gui/ExecutionController.h"
@@ -19,6 +26,7 @@
 #include "Interface/Gui/VtkWidget.h"
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Modules/StandardModules.h"
+#include "ParameterCheck.h"
 
 using namespace tetflow;
 using namespace tetflow::gui;
@@ -42,6 +50,59 @@ TetMesh cube() {
   for (const auto& p : m.points) pot.values.push_back(0.5 * p[0]); // |grad| = 0.5
   m.pointFields["potential"] = pot;
   return m;
+}
+
+// n x n x n cubes of `size` mm, 6 Kuhn tets each, one material; `potential` is a current dipole's
+// (along z, just off the centre so that no vertex sits on it): u = p.(x - x0) / |x - x0|^3.
+TetMesh dipoleBox(int n, double size) {
+  TetMesh m;
+  const double h = size / n;
+  auto id = [n](int i, int j, int k) { return int32_t((k * (n + 1) + j) * (n + 1) + i); };
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) m.points.push_back({h * i, h * j, h * k});
+  const int axes[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        for (const auto& a : axes) {
+          int c[3] = {0, 0, 0};
+          auto corner = [&] { return id(i + c[0], j + c[1], k + c[2]); };
+          const int32_t v0 = corner();
+          c[a[0]] = 1;
+          const int32_t v1 = corner();
+          c[a[1]] = 1;
+          const int32_t v2 = corner();
+          c[a[2]] = 1;
+          const int32_t v3 = corner();
+          TetMesh::Tet t{v0, v1, v2, v3};
+          if (signedTetVolume(m.points[t[0]], m.points[t[1]], m.points[t[2]], m.points[t[3]]) < 0) std::swap(t[2], t[3]);
+          m.tets.push_back(t);
+          m.materials.push_back(1);
+        }
+  const Vec3 x0{0.5 * size + 0.3 * h, 0.5 * size + 0.2 * h, 0.5 * size + 0.4 * h};
+  Field pot;
+  for (const auto& p : m.points) {
+    const Vec3 d = p - x0;
+    const double r = std::sqrt(dot(d, d));
+    pot.values.push_back(d[2] / (r * r * r));
+  }
+  m.pointFields["potential"] = pot;
+  return m;
+}
+
+// Share of values whose place on the lookup table's scale is outside its middle fifth: how much
+// of the surface shows a colour other than the scale's middle one.
+double offMiddle(const std::vector<double>& values, vtkLookupTable* lut) {
+  const double* r = lut->GetRange();
+  const bool log = lut->GetScale() == VTK_SCALE_LOG10;
+  auto place = [&](double v) {
+    v = std::clamp(v, r[0], r[1]);
+    return log ? (std::log10(v) - std::log10(r[0])) / (std::log10(r[1]) - std::log10(r[0])) : (v - r[0]) / (r[1] - r[0]);
+  };
+  double n = 0;
+  for (double v : values) n += std::abs(place(v) - 0.5) > 0.1;
+  return n / double(values.size());
 }
 
 const QColor kBackground(82, 87, 110); // MeshView background 0.32, 0.34, 0.43
@@ -160,6 +221,130 @@ private slots:
     QVERIFY(s.background > 0.2 && s.other > 0.05);
     mv.setColorBy("material");
     QVERIFY(!mv.scalarBarVisible());
+  }
+
+  // Issue 27, item 4: a dipole's potential gets a diverging scale symmetric about zero, magnitudes
+  // a log scale, chosen by the field's kind; the Scale box overrides it per field.
+  void signedFieldsDivergeAndMagnitudesAreLog() {
+    QCOMPARE(MeshView::automaticScale("potential", false, -2, 3), MeshView::ColorScale::Diverging);
+    QCOMPARE(MeshView::automaticScale("potential", false, 0, 1), MeshView::ColorScale::Linear);
+    QCOMPARE(MeshView::automaticScale("|∇potential|", true, 0, 5), MeshView::ColorScale::Log);
+    QCOMPARE(MeshView::automaticScale("current_density", false, 0, 5), MeshView::ColorScale::Log);
+    QCOMPARE(MeshView::automaticScale("grad_magnitude", false, 0, 5), MeshView::ColorScale::Log);
+    QCOMPARE(MeshView::automaticScale("min_dihedral", false, 10, 70), MeshView::ColorScale::Linear);
+
+    MeshView mv;
+    mv.resize(640, 480);
+    mv.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&mv));
+    const TetMesh box = dipoleBox(12, 60);
+    mv.showData(makeData<TetMeshData>(TetMesh(box)), {}, "dipole");
+    QVERIFY(!mv.scaleBox()->isEnabled()); // material colours: no scale
+    mv.setColorBy("potential");
+    QCOMPARE(mv.colorScale(), MeshView::ColorScale::Diverging);
+    QCOMPARE(mv.scaleBox()->currentText(), QString("diverging"));
+    QVERIFY(mv.scaleBox()->isEnabled());
+    const auto [lo, hi] = mv.colorRange();
+    QCOMPARE(lo, -hi);
+    double maxAbs = 0;
+    for (double v : box.pointFields.at("potential").values) maxAbs = std::max(maxAbs, std::abs(v));
+    QVERIFY(hi > 0 && hi <= maxAbs);
+    vtkLookupTable* lut = mv.lookupTable();
+    QCOMPARE(lut->GetScale(), VTK_SCALE_LINEAR);
+    double c[3];
+    lut->GetColor(0.0, c); // white at zero
+    QVERIFY2(c[0] > 0.85 && c[1] > 0.85 && c[2] > 0.85, qPrintable(QString("%1 %2 %3").arg(c[0]).arg(c[1]).arg(c[2])));
+    lut->GetColor(hi, c); // red above
+    QVERIFY(c[0] > c[2] + 0.4);
+    lut->GetColor(-hi, c); // blue below
+    QVERIFY(c[2] > c[0] + 0.4);
+    // The surface is not one colour: much of it lies outside the middle of the scale, far more
+    // than on a linear scale over the field's min..max, where the singular peaks squeeze
+    // everything else into the middle.
+    const double diverging = offMiddle(mv.shownValues(), lut);
+    // The render has red and blue pixels (the scalar bar alone makes under 1 % of each).
+    const QImage img = renderNow(mv.vtkWidget());
+    QVERIFY(!img.isNull());
+    double red = 0, blue = 0;
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x) {
+        const QColor p = img.pixelColor(x, y);
+        const bool background = std::abs(p.red() - kBackground.red()) + std::abs(p.green() - kBackground.green()) +
+                                    std::abs(p.blue() - kBackground.blue()) <= 9;
+        red += !background && p.red() > p.blue() + 30;
+        blue += !background && p.blue() > p.red() + 30;
+      }
+    const double pixels = double(img.width()) * img.height();
+    QVERIFY2(red / pixels > 0.02 && blue / pixels > 0.02, qPrintable(QString("red %1 blue %2").arg(red / pixels).arg(blue / pixels)));
+
+    // The user's choice: linear over min..max, kept for this field.
+    mv.scaleBox()->setCurrentText("linear");
+    QCOMPARE(mv.colorScale(), MeshView::ColorScale::Linear);
+    const auto [llo, lhi] = mv.colorRange();
+    QVERIFY(llo < -maxAbs * 0.5 && lhi > maxAbs * 0.5);
+    const double linear = offMiddle(mv.shownValues(), lut);
+    qInfo("surface off the middle colour: diverging %.2f, linear %.2f; red pixels %.3f, blue %.3f", diverging, linear,
+          red / pixels, blue / pixels);
+    QVERIFY2(diverging > 0.3 && diverging > 3 * linear,
+             qPrintable(QString("off the middle colour: diverging %1, linear %2").arg(diverging).arg(linear)));
+
+    // A magnitude: log10 over a positive range.
+    mv.setColorBy("|∇potential|");
+    QCOMPARE(mv.colorScale(), MeshView::ColorScale::Log);
+    QCOMPARE(mv.scaleBox()->currentText(), QString("log"));
+    QCOMPARE(lut->GetScale(), VTK_SCALE_LOG10);
+    const auto [glo, ghi] = mv.colorRange();
+    QVERIFY(glo > 0 && ghi > 10 * glo);
+    QVERIFY(mv.scalarBarVisible());
+    mv.setColorBy("potential"); // the choice for the potential was kept
+    QCOMPARE(mv.colorScale(), MeshView::ColorScale::Linear);
+    mv.setColorScale(MeshView::ColorScale::Diverging);
+    QCOMPARE(mv.colorRange()[0], -mv.colorRange()[1]);
+    mv.setColorBy("min_dihedral");
+    QCOMPARE(mv.colorScale(), MeshView::ColorScale::Linear);
+    mv.setColorBy("material");
+    QVERIFY(!mv.scaleBox()->isEnabled());
+  }
+
+  // Issue 27, item 4, with the 3D view there (the node-editor test runs without one): at the
+  // default size every parameter of every shipped net is shown whole, also once a run has filled
+  // the 3D view (its toolbar and status line must not widen the window).
+  void parameterValuesVisibleBesideThe3DView() {
+    MainWindow win(registry_);
+    win.setInteractive(false);
+    win.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&win));
+    QVERIFY(win.meshView());
+    QCOMPARE(win.size(), QSize(1280, 800));
+    const QDir nets(TETFLOW_SOURCE_DIR "/Nets");
+    ShownParameters shown;
+    for (const QString& f : nets.entryList({"*.srn"})) {
+      QVERIFY2(win.openFile(nets.filePath(f)), qPrintable(f));
+      for (const ModuleNode& m : win.network().modules()) {
+        const QString problem = shown.check(win, m, f);
+        QVERIFY2(problem.isEmpty(), qPrintable(problem));
+      }
+    }
+    QVERIFY(shown.checked > 100);
+    // The EEG net executed (the 3D view and its status line filled): every module again.
+    QTemporaryDir out;
+    QVERIFY(win.openFile(nets.filePath("head_dipole.srn")));
+    win.network().setOutputDir(out.path().toStdString());
+    QVERIFY(win.executeAll());
+    QVERIFY(win.execution()->waitForFinished(120000));
+    QVERIFY(win.execution()->lastSummary().success);
+    for (const ModuleNode& m : win.network().modules()) {
+      const QString problem = shown.check(win, m, "head_dipole.srn (executed)");
+      QVERIFY2(problem.isEmpty(), qPrintable(problem));
+    }
+    // The solve's module with its potential on the diverging scale and its longest status line.
+    win.selectModule("m4");
+    win.meshView()->setColorBy("potential");
+    QCOMPARE(win.meshView()->colorScale(), MeshView::ColorScale::Diverging);
+    const QString problem = shown.check(win, *win.network().module("m4"), "head_dipole.srn (potential shown)");
+    QVERIFY2(problem.isEmpty(), qPrintable(problem));
+    QCOMPARE(win.meshView()->colorScale(), MeshView::ColorScale::Diverging);
+    qInfo("least room left under a form: %d px (%s)", shown.tightest, qPrintable(shown.tightestAt));
   }
 
   void rendersLabelVolumeSlices() {

@@ -1,9 +1,11 @@
 // Node-editor behaviour (QtTest, runs under QT_QPA_PLATFORM=offscreen; no 3D view there):
 // palette, adding modules, dragging wires with the mouse, refusing bad wires, undo/redo, moving,
-// parameter edits through the panel, save -> same bytes, and executing a small network off the
-// GUI thread with statuses on the canvas.
+// parameter edits through the panel, every shipped net's parameter values shown whole at the
+// default window size, save -> same bytes, and executing a small network off the GUI thread with
+// statuses on the canvas.
 #include <QComboBox>
 #include <QDir>
+#include <QDockWidget>
 #include <QDropEvent>
 #include <QMimeData>
 #include <QTreeWidget>
@@ -26,6 +28,7 @@
 #include "Interface/Gui/ReportView.h"
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Modules/StandardModules.h"
+#include "ParameterCheck.h"
 
 using namespace tetflow;
 using namespace tetflow::gui;
@@ -282,6 +285,32 @@ private slots:
     win_->selectModule(QString::fromStdString(w));
     QVERIFY(p->editor("filename"));
     QVERIFY(p->editor("filename")->parentWidget()->findChild<QToolButton*>());
+  }
+
+  // Issue 27, item 4: at the default window size every parameter of every module of every shipped
+  // net shows its name (with its unit) and its whole value, without scrolling.
+  void everyParameterValueIsVisibleAtTheDefaultSize() {
+    win_ = std::make_unique<MainWindow>(registry_); // as the application starts: no resize
+    win_->setInteractive(false);
+    win_->show();
+    QVERIFY(QTest::qWaitForWindowExposed(win_.get()));
+    QCOMPARE(win_->size(), QSize(1280, 800));
+    const QDir nets(TETFLOW_SOURCE_DIR "/Nets");
+    const QStringList files = nets.entryList({"*.srn"});
+    QVERIFY(!files.isEmpty());
+    ShownParameters shown;
+    for (const QString& f : files) {
+      QVERIFY2(win_->openFile(nets.filePath(f)), qPrintable(f));
+      for (const ModuleNode& m : net().modules()) {
+        const QString problem = shown.check(*win_, m, f);
+        QVERIFY2(problem.isEmpty(), qPrintable(problem));
+      }
+    }
+    QVERIFY(shown.checked > 100);
+    QVERIFY(shown.longest >= 15); // the longest list (AssembleFEMPoisson) was among them
+    const auto* dock = win_->findChild<QDockWidget*>("parameters");
+    qInfo("parameter dock %d x %d px, %d parameters checked; least room left under a form: %d px (%s)",
+          dock->width(), dock->height(), shown.checked, shown.tightest, qPrintable(shown.tightestAt));
   }
 
   void saveWritesTheSameBytes() {
