@@ -74,6 +74,13 @@ std::string signatureOf(const ModuleNode& m, const std::string& baseDir) {
       }
     }
   }
+  if (m.info->sideFiles)
+    for (const std::string& f : m.info->sideFiles(m.params, baseDir)) {
+      std::error_code ec;
+      const auto size = std::filesystem::file_size(f, ec);
+      const auto time = std::filesystem::last_write_time(f, ec);
+      s << "side file " << f << ' ' << (ec ? 0 : size) << ' ' << (ec ? 0 : time.time_since_epoch().count()) << '\n';
+    }
   return s.str();
 }
 

@@ -44,6 +44,11 @@ struct ModuleInfo {
   std::vector<ParamSpec> params;
   std::vector<std::string> summaryKeys; // Report keys shown on the runner's one-line summary
   std::function<std::unique_ptr<Module>()> factory;
+  // Files the module reads besides those its path parameters name (e.g. the label table found
+  // beside a volume), given its parameters and the network's folder: their size and time join
+  // the result's cache signature, so that editing, adding or removing one runs it again.
+  std::function<std::vector<std::string>(const std::map<std::string, ParamValue>&, const std::string& baseDir)>
+      sideFiles;
 
   const ParamSpec* param(const std::string& n) const;
   // Port index by name or by decimal index text; -1 when unknown.

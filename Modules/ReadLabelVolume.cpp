@@ -1,5 +1,7 @@
 // ReadLabelVolume: a segmentation from NRRD, NIfTI, MetaImage, INRIA or VTK image files, with
 // spacing and origin kept, and the tissue names of its label table (given, or found beside it).
+#include <filesystem>
+
 #include "Algorithms/IO/LabelTable.h"
 #include "Algorithms/IO/VolumeIO.h"
 #include "StandardModules.h"
@@ -15,6 +17,10 @@ public:
     RawVolume raw = readVolume(path);
     ctx.progress().endStage();
     LabelVolume v = toLabelVolume(raw, path);
+    if (!raw.labelNames.empty()) { // a 3D Slicer segmentation names its segments; a table overrides
+      v.labelNames = raw.labelNames;
+      ctx.report().set("label_names_from", "file header");
+    }
     raw = RawVolume{}; // release the file's copy before reporting
     std::string tablePath;
     if (!ctx.getString("label_table").empty()) tablePath = ctx.getPath("label_table");
@@ -23,6 +29,7 @@ public:
       LabelTable t = readLabelTable(tablePath);
       v.labelNames = std::move(t.names);
       v.labelConductivities = std::move(t.conductivities);
+      ctx.report().set("label_names_from", "label table");
       ctx.report().set("label_table", tablePath);
       ctx.report().set("label_table_format", t.format);
     }
@@ -61,6 +68,24 @@ void registerReadLabelVolume(ModuleRegistry& r) {
   m.params = {f, table, find};
   m.summaryKeys = {"dims", "labels"};
   m.factory = [] { return std::make_unique<ReadLabelVolume>(); };
+  // The table found beside the volume is read too: which one (or none) and its time belong to the
+  // result, so a table added, edited or removed beside a cached volume reads it again.
+  m.sideFiles = [](const std::map<std::string, ParamValue>& params, const std::string& baseDir) {
+    std::vector<std::string> files;
+    auto text = [&](const char* name) {
+      auto it = params.find(name);
+      const std::string* v = it == params.end() ? nullptr : std::get_if<std::string>(&it->second);
+      return v ? *v : std::string();
+    };
+    auto find = params.find("find_label_table");
+    const bool* on = find == params.end() ? nullptr : std::get_if<bool>(&find->second);
+    std::filesystem::path volume(text("filename"));
+    if (volume.empty() || !text("label_table").empty() || !on || !*on) return files;
+    if (volume.is_relative() && !baseDir.empty()) volume = std::filesystem::path(baseDir) / volume;
+    const std::string table = labelTableBeside(volume.string());
+    files.push_back(table.empty() ? "(no label table beside the volume)" : table);
+    return files;
+  };
   r.add(std::move(m));
 }
 

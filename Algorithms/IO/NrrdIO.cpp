@@ -104,6 +104,7 @@ const std::map<std::string, std::string>& fieldAliases() {
 struct Header {
   std::string path;
   std::map<std::string, Field> fields;
+  std::map<std::string, std::string> keyValues; // "key:=value" lines (e.g. 3D Slicer's segments)
   // Offset of the first byte after the blank line ending the header; -1 when the header ran to
   // the end of the file (a detached header).
   int64_t dataOffset = -1;
@@ -163,7 +164,10 @@ void processLine(Header& h, std::string_view line, int lineNo) {
   const size_t colon = line.find(':');
   if (colon == std::string_view::npos)
     h.failLine(lineNo, "expected 'field: value', got " + shown(line));
-  if (colon + 1 < line.size() && line[colon + 1] == '=') return; // key:=value pair, not used
+  if (colon + 1 < line.size() && line[colon + 1] == '=') { // key:=value pair
+    h.keyValues[std::string(line.substr(0, colon))] = std::string(trim(line.substr(colon + 2)));
+    return;
+  }
   const std::string name = canonical(line.substr(0, colon));
   const auto& aliases = fieldAliases();
   auto it = aliases.find(name);
@@ -919,6 +923,30 @@ void writeAll(std::ofstream& out, const char* data, size_t n) {
 
 } // namespace
 
+namespace {
+
+// 3D Slicer's segmentation files (.seg.nrrd) name their segments in key:=value pairs:
+// SegmentN_Name, SegmentN_LabelValue and SegmentN_Layer. Segments of layer 0 (or with no layer)
+// that have both a name and a label value name that label.
+std::map<int32_t, std::string> slicerSegmentNames(const Header& h) {
+  std::map<int32_t, std::string> names;
+  for (const auto& [key, value] : h.keyValues) {
+    if (key.rfind("Segment", 0) != 0 || key.size() < 13 || key.compare(key.size() - 5, 5, "_Name") != 0) continue;
+    const std::string segment = key.substr(0, key.size() - 5);
+    auto label = h.keyValues.find(segment + "_LabelValue");
+    auto layer = h.keyValues.find(segment + "_Layer");
+    if (label == h.keyValues.end() || (layer != h.keyValues.end() && trim(layer->second) != "0")) continue;
+    int32_t L = 0;
+    const std::string_view text = trim(label->second);
+    auto r = std::from_chars(text.data(), text.data() + text.size(), L);
+    if (r.ec != std::errc() || r.ptr != text.data() + text.size() || value.empty()) continue;
+    names[L] = value;
+  }
+  return names;
+}
+
+} // namespace
+
 RawVolume readNrrd(const std::string& path) {
   const Header h = readHeader(path);
   const Layout L = interpret(h);
@@ -926,6 +954,7 @@ RawVolume readNrrd(const std::string& path) {
   raw.grid = L.grid;
   raw.type = L.type;
   readData(L, raw);
+  raw.labelNames = slicerSegmentNames(h);
   return raw;
 }
 

@@ -5,6 +5,7 @@
 // int32 range; scalars must be finite).
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,7 @@ struct RawVolume {
   GridGeometry grid;
   VoxelType type = VoxelType::UInt8;
   std::vector<unsigned char> bytes; // voxelCount * voxelTypeSize(type), host byte order
+  std::map<int32_t, std::string> labelNames; // names the file itself gives its labels (3D Slicer's .seg.nrrd)
 
   double valueAsDouble(int64_t index) const;
 };

@@ -1,7 +1,7 @@
 // Writes the CAD test models of Testing/Fixtures/CadModels.h (made with OpenCASCADE's primitives,
 // booleans and sweeps) as BREP and STEP files, for the nets and for trying them elsewhere:
 //   build/Testing/cad_models OUTPUT_FOLDER
-// Nets/electrode_in_tissue.brep was written by it.
+// Nets/electrode_in_tissue.brep and Nets/four_shell_sphere.brep were written by it.
 #include <BRepTools.hxx>
 
 #include <cstdio>
@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   auto models = testing::testModels();
   models.push_back({"electrode_in_tissue", testing::electrodeInTissue, 6});
+  models.push_back({"four_shell_sphere", testing::fourShellSphere, 14});
   for (const auto& tm : models) {
     const TopoDS_Shape shape = tm.make();
     auto model = testing::modelOf(shape, tm.name); // checks it

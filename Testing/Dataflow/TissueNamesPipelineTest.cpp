@@ -4,6 +4,8 @@
 // taken from the label table or from the literature by name.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "Algorithms/Core/Phantom.h"
 #include "Algorithms/IO/MeshIO.h"
 #include "Algorithms/IO/RawVolume.h"
@@ -136,6 +138,61 @@ TEST(TissueNamesPipeline, ACsvTableGivesConductivitiesAndAFreeSurferTableIsFound
   EXPECT_NE(bad.exec.state("fem")->error.find("no tissue called 'grey matter'; its tissues are Scalp (1), Bone (2), CSF (3), brain (4)"),
             std::string::npos)
       << bad.exec.state("fem")->error;
+}
+
+// The label table found beside a volume is part of ReadLabelVolume's cached result: adding,
+// editing or removing it runs the module again; nothing changed, the result is reused.
+TEST(TissueNamesPipeline, ATableAddedEditedOrRemovedBesideACachedVolumeIsReadAgain) {
+  test::TempDir dir;
+  const std::string volume = writeHead(dir, "seg.nii.gz");
+  ModuleRegistry reg;
+  test::registerTestModules(reg);
+  Network net(reg);
+  net.addModule("ReadLabelVolume", "read");
+  net.setParameterText("read", "filename", volume);
+  Executor exec;
+  auto names = [&] {
+    EXPECT_TRUE(exec.execute(net).success) << exec.state("read")->error;
+    const ReportValue* v = exec.state("read")->report.find("label_names");
+    return v ? formatReportValue(*v) : std::string("(none)");
+  };
+  const std::string none = names();
+  EXPECT_EQ(none.find("Scalp"), std::string::npos);
+  EXPECT_EQ(names(), none);
+  EXPECT_TRUE(exec.state("read")->reused);
+  test::writeBytes(dir.file("seg.lut"), "0 Unknown 0 0 0 0\n1 Scalp 1 1 1 0\n2 Bone 2 2 2 0\n");
+  EXPECT_EQ(names(), "0 Unknown; 1 Scalp; 2 Bone");
+  EXPECT_FALSE(exec.state("read")->reused);
+  test::writeBytes(dir.file("seg.lut"), "0 Unknown 0 0 0 0\n1 Skin 1 1 1 0\n2 Bone 2 2 2 0\n3 CSF 3 3 3 0\n");
+  EXPECT_EQ(names(), "0 Unknown; 1 Skin; 2 Bone; 3 CSF");
+  std::filesystem::remove(dir.file("seg.lut"));
+  EXPECT_EQ(names(), none);
+  EXPECT_FALSE(exec.state("read")->reused);
+}
+
+// A 3D Slicer segmentation (.seg.nrrd) names its segments in its header (SegmentN_Name,
+// SegmentN_LabelValue, SegmentN_Layer): those of layer 0 name their labels; a table overrides.
+TEST(TissueNamesPipeline, ASlicerSegmentationNamesItsLabels) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("head.seg.nrrd"), "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: ascii\n"
+                                              "Segment0_Name:=White matter\nSegment0_LabelValue:=1\nSegment0_Layer:=0\n"
+                                              "Segment1_Name:=Skull\nSegment1_LabelValue:=2\n"
+                                              "Segment2_Name:=Overlapping\nSegment2_LabelValue:=1\nSegment2_Layer:=1\n"
+                                              "\n0 1 2 1 0 1 2 2\n");
+  ModuleRegistry reg;
+  test::registerTestModules(reg);
+  Network net(reg);
+  net.addModule("ReadLabelVolume", "read");
+  net.setParameterText("read", "filename", dir.file("head.seg.nrrd"));
+  Executor exec;
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("read")->error;
+  EXPECT_EQ(formatReportValue(*exec.state("read")->report.find("label_names")), "1 White matter; 2 Skull");
+  EXPECT_EQ(formatReportValue(*exec.state("read")->report.find("label_names_from")), "file header");
+  test::writeBytes(dir.file("names.csv"), "label,name\n1,WM\n2,bone\n");
+  net.setParameterText("read", "label_table", dir.file("names.csv"));
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("read")->error;
+  EXPECT_EQ(formatReportValue(*exec.state("read")->report.find("label_names")), "1 WM; 2 bone");
+  EXPECT_EQ(formatReportValue(*exec.state("read")->report.find("label_names_from")), "label table");
 }
 
 } // namespace

@@ -103,6 +103,18 @@ inline TopoDS_Shape electrodeInTissue() {
   return gf.Shape();
 }
 
+// The four-shell sphere of the EEG validation (radii 78 / 80 / 86 / 92 mm: brain, CSF, skull,
+// scalp; the radii of the phantom head and of AnalyticSphereEEG's defaults), four concentric
+// spheres glued by the general fuse: a ball and three shells, each pair sharing its sphere.
+inline TopoDS_Shape fourShellSphere() {
+  TopTools_ListOfShape args;
+  for (double r : {92.0, 86.0, 80.0, 78.0}) args.Append(BRepPrimAPI_MakeSphere(r).Shape());
+  BRepAlgoAPI_BuilderAlgo gf;
+  gf.SetArguments(args);
+  gf.Build();
+  return gf.Shape();
+}
+
 struct TestModel {
   std::string name;
   std::function<TopoDS_Shape()> make;
