@@ -80,6 +80,7 @@ case "${1:-}" in
       # particle and lead-field tests).
       heavy='^(Nets\.(adaptive_particles|adaptive_head|eeg_leadfield|TheHeadNetsPassTheirCertificatesOnALayeredHead|ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes)'
       heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
+      heavy+='|EegForward\.VenantBeatsPartialIntegrationAtHighEccentricity'
       heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation'
       heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes)$' # Nets.bem_head runs its net here
       exec ctest --output-on-failure -j "$JOBS" -E "$heavy" "$@"

@@ -1,4 +1,5 @@
 #include "PoissonProblem.h"
+#include "SourceModels.h"
 
 #include "MaterialCurrents.h"
 
@@ -107,9 +108,15 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   const SparseMatrix K = assembleStiffness(mesh, params.conductivities, progress);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(Eigen::Index(np));
   if (params.boundary == BoundaryCondition::Boundary) f = assembleLoad(mesh, params.source);
-  if (params.boundary == BoundaryCondition::Dipole)
+  if (params.boundary == BoundaryCondition::Dipole && params.venant) {
+    if (params.dipole_separation != 0.0)
+      throw InputError("source_model venant places monopoles on mesh vertices: dipole_separation must be 0");
+    VenantSources(mesh).add(params.dipole_position, params.dipole_moment, f);
+    res.dipoleTets = {*locatePoint(mesh, params.dipole_position)}; // add() checked it is inside
+  } else if (params.boundary == BoundaryCondition::Dipole) {
     res.dipoleTets = addDipole(mesh, params.dipole_position, params.dipole_moment,
                                params.dipole_separation, f);
+  }
   progress.endStage();
   res.assembleSeconds = secondsSince(t0);
 

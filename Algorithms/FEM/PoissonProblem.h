@@ -74,6 +74,7 @@ struct PoissonParams {
   Vec3 dipole_position{0.0, 0.0, 0.0};              // dipole: mm
   Vec3 dipole_moment{0.0, 0.0, 1.0};                // dipole: mA mm
   double dipole_separation = 0.0;                   // dipole: mm (0 = partial-integration limit)
+  bool venant = false;  // dipole: the St. Venant monopoles of SourceModels.h (separation must be 0)
   double injected_current = 0.0;  // material_electrodes with two labels: mA from the higher-
                                   // potential electrode to the other (0 = potentials as given)
   SolverParams solver;

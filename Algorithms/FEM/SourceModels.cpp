@@ -1,0 +1,89 @@
+// The St. Venant dipole source model (see SourceModels.h).
+#include "Algorithms/FEM/SourceModels.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/FEM/Assembly.h"
+
+namespace tetflow {
+
+VenantSources::VenantSources(const TetMesh& mesh) : mesh_(mesh) {
+  // Vertex -> vertices sharing a tet (CSR), the vertex itself left out.
+  const size_t n = mesh.numPoints();
+  std::vector<std::vector<int32_t>> around(n);
+  for (const auto& t : mesh.tets)
+    for (int a = 0; a < 4; ++a)
+      for (int c = 0; c < 4; ++c)
+        if (a != c) around[size_t(t[size_t(a)])].push_back(t[size_t(c)]);
+  offset_.assign(n + 1, 0);
+  for (size_t v = 0; v < n; ++v) {
+    auto& a = around[v];
+    std::sort(a.begin(), a.end());
+    a.erase(std::unique(a.begin(), a.end()), a.end());
+    offset_[v + 1] = offset_[v] + int64_t(a.size());
+  }
+  neighbours_.reserve(size_t(offset_[n]));
+  for (auto& a : around) {
+    neighbours_.insert(neighbours_.end(), a.begin(), a.end());
+    std::vector<int32_t>().swap(a);
+  }
+}
+
+std::vector<std::pair<int32_t, double>> VenantSources::monopoles(const Vec3& x, const Vec3& M) const {
+  const double m = norm(M);
+  if (!(m > 0) || !std::isfinite(m))
+    throw InputError("dipole_moment: must be a non-zero finite vector (mA mm)");
+  const auto loc = locatePoint(mesh_, x);
+  if (!loc)
+    throw InputError("dipole_position (" + std::to_string(x[0]) + ", " + std::to_string(x[1]) + ", " +
+                     std::to_string(x[2]) + ") mm lies outside the mesh");
+  const auto& tet = mesh_.tets[size_t(loc->tet)];
+  int32_t x0 = tet[0];
+  for (int a = 1; a < 4; ++a)
+    if (norm(mesh_.points[size_t(tet[size_t(a)])] - x) < norm(mesh_.points[size_t(x0)] - x)) x0 = tet[size_t(a)];
+  std::vector<int32_t> verts{x0};
+  verts.insert(verts.end(), neighbours_.begin() + offset_[size_t(x0)], neighbours_.begin() + offset_[size_t(x0) + 1]);
+  const int C = int(verts.size());
+  std::vector<Vec3> dx(static_cast<size_t>(C));
+  double a = 0;
+  for (int j = 0; j < C; ++j) {
+    dx[size_t(j)] = mesh_.points[size_t(verts[size_t(j)])] - x;
+    a += norm(dx[size_t(j)]);
+  }
+  a /= C;
+  Eigen::MatrixXd X(7, C);
+  Eigen::VectorXd T = Eigen::VectorXd::Zero(7), w(C);
+  for (int j = 0; j < C; ++j) {
+    const Vec3 d = (1.0 / a) * dx[size_t(j)];
+    X(0, j) = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      X(1 + k, j) = d[size_t(k)];
+      X(4 + k, j) = d[size_t(k)] * d[size_t(k)];
+    }
+    w(j) = norm(d);
+  }
+  for (int k = 0; k < 3; ++k) T(1 + k) = M[size_t(k)] / a;
+  const double lambda = 1e-6;
+  Eigen::MatrixXd A = X.transpose() * X;
+  A.diagonal() += lambda * w.cwiseProduct(w);
+  Eigen::VectorXd q = A.ldlt().solve(X.transpose() * T);
+  q.array() -= q.mean(); // no net current, exactly (the least squares leave ~1e-8 of it)
+  std::vector<std::pair<int32_t, double>> out;
+  for (int j = 0; j < C; ++j) out.push_back({verts[size_t(j)], q(j)});
+  return out;
+}
+
+std::vector<int32_t> VenantSources::add(const Vec3& position, const Vec3& moment, Eigen::VectorXd& b) const {
+  std::vector<int32_t> used;
+  for (const auto& [v, q] : monopoles(position, moment)) {
+    b[v] += q;
+    used.push_back(v);
+  }
+  return used;
+}
+
+} // namespace tetflow
