@@ -22,6 +22,8 @@ void registerStandardModules(ModuleRegistry& r) {
   registerAssembleFEMPoisson(r);
   registerComputeLeadField(r);
   registerAnalyticSphereEEG(r);
+  registerComputeMEG(r);
+  registerComputeMegLeadField(r);
   registerReadCADModel(r);
   registerMeshCADSurface(r);
 }

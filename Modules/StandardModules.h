@@ -27,6 +27,8 @@ void registerAssembleFEMPoisson(ModuleRegistry& r);
 void registerImproveMesh(ModuleRegistry& r);
 void registerComputeLeadField(ModuleRegistry& r);
 void registerAnalyticSphereEEG(ModuleRegistry& r);
+void registerComputeMEG(ModuleRegistry& r);
+void registerComputeMegLeadField(ModuleRegistry& r);
 // CAD models (OpenCASCADE; without it they are registered but say so when run, with this).
 void registerReadCADModel(ModuleRegistry& r);
 void registerMeshCADSurface(ModuleRegistry& r);

@@ -27,6 +27,39 @@ std::string vecText(const Vec3& p) {
 }
 } // namespace
 
+void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
+                      std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress) {
+  if (labels.empty() == points.empty())
+    throw InputError("sources: give either source labels (the centroids of their tets) or source points, "
+                     "not both and not neither");
+  sources.clear();
+  sourceTets.clear();
+  if (!labels.empty()) {
+    for (int32_t l : labels) {
+      if (std::find(mesh.materials.begin(), mesh.materials.end(), l) == mesh.materials.end())
+        throw InputError("source_labels: label " + std::to_string(l) + " is not in the mesh");
+    }
+    for (size_t t = 0; t < mesh.numTets(); ++t)
+      if (std::find(labels.begin(), labels.end(), mesh.materials[t]) != labels.end()) {
+        const auto& q = mesh.tets[t];
+        Vec3 c{0, 0, 0};
+        for (int a = 0; a < 4; ++a) c = c + 0.25 * mesh.points[size_t(q[a])];
+        sources.push_back(c);
+        sourceTets.push_back(int64_t(t));
+      }
+  } else {
+    for (size_t i = 0; i < points.size(); ++i) {
+      const auto loc = locatePoint(mesh, points[i]);
+      if (!loc)
+        throw InputError("sources: point " + std::to_string(i + 1) + " at " + vecText(points[i]) +
+                         " mm lies outside the mesh");
+      sources.push_back(points[i]);
+      sourceTets.push_back(loc->tet);
+      progress.checkCancel();
+    }
+  }
+}
+
 LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& params, Progress& progress) {
   LeadFieldResult res;
   mesh.validateStructure("mesh");
@@ -41,31 +74,7 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   const size_t ne = params.electrodes.size(), np = mesh.numPoints();
 
   // --- sources ---
-  if (!params.sourceLabels.empty()) {
-    for (int32_t l : params.sourceLabels) {
-      if (std::find(mesh.materials.begin(), mesh.materials.end(), l) == mesh.materials.end())
-        throw InputError("source_labels: label " + std::to_string(l) + " is not in the mesh");
-    }
-    for (size_t t = 0; t < mesh.numTets(); ++t)
-      if (std::find(params.sourceLabels.begin(), params.sourceLabels.end(), mesh.materials[t]) !=
-          params.sourceLabels.end()) {
-        const auto& q = mesh.tets[t];
-        Vec3 c{0, 0, 0};
-        for (int a = 0; a < 4; ++a) c = c + 0.25 * mesh.points[size_t(q[a])];
-        res.sources.push_back(c);
-        res.sourceTets.push_back(int64_t(t));
-      }
-  } else {
-    for (size_t i = 0; i < params.sourcePoints.size(); ++i) {
-      const auto loc = locatePoint(mesh, params.sourcePoints[i]);
-      if (!loc)
-        throw InputError("sources: point " + std::to_string(i + 1) + " at " + vecText(params.sourcePoints[i]) +
-                         " mm lies outside the mesh");
-      res.sources.push_back(params.sourcePoints[i]);
-      res.sourceTets.push_back(loc->tet);
-      progress.checkCancel();
-    }
-  }
+  leadFieldSources(mesh, params.sourceLabels, params.sourcePoints, res.sources, res.sourceTets, progress);
   const size_t ns = res.sources.size();
   {
     const double bytes = 8.0 * double(ne) * 3.0 * double(ns) + 100.0 * double(mesh.numTets());
@@ -205,17 +214,7 @@ void writeLeadField(const LeadFieldResult& r, const TetMesh& mesh, const std::st
     AtomicOutputFile out(path, ext == ".npy");
     auto& s = out.stream();
     if (ext == ".npy") {
-      std::ostringstream h;
-      h << "{'descr': '<f8', 'fortran_order': False, 'shape': (" << ne << ", " << ns << ", 3), }";
-      std::string header = h.str();
-      const size_t total = 10 + header.size() + 1; // magic(6) version(2) length(2) header '\n'
-      header.append((64 - total % 64) % 64, ' ');
-      header.push_back('\n');
-      const uint16_t len = uint16_t(header.size());
-      s.write("\x93NUMPY\x01\x00", 8);
-      const char lenBytes[2] = {char(len & 0xff), char(len >> 8)};
-      s.write(lenBytes, 2);
-      s.write(header.data(), std::streamsize(header.size()));
+      writeNpyFloat64Header(s, {ne, ns, 3});
       // Row-major (electrode, source, axis): the matrix row e, in column order.
       std::vector<double> row(3 * ns);
       for (size_t e = 0; e < ne; ++e) {

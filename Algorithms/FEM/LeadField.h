@@ -63,6 +63,12 @@ struct LeadFieldResult {
   std::vector<std::string> notes;
 };
 
+// The sources of a lead field (also used by Meg.h): the centroids of every tet whose label is in
+// `labels`, in tet order, or `points`, each located in its tet. InputError for both or neither, a
+// label absent from the mesh, a point outside it (numbered from 1).
+void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
+                      std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress);
+
 LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& params, Progress& progress);
 
 // Writes the matrix by extension, atomically (temp file + rename):

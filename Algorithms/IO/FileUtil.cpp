@@ -225,4 +225,20 @@ void AtomicOutputFile::commit() {
   committed_ = true;
 }
 
+void writeNpyFloat64Header(std::ostream& s, const std::vector<size_t>& shape) {
+  std::ostringstream h;
+  h << "{'descr': '<f8', 'fortran_order': False, 'shape': (";
+  for (size_t i = 0; i < shape.size(); ++i) h << shape[i] << (shape.size() == 1 || i + 1 < shape.size() ? ", " : "");
+  h << "), }";
+  std::string header = h.str();
+  const size_t total = 10 + header.size() + 1; // magic(6) version(2) length(2) header '\n'
+  header.append((64 - total % 64) % 64, ' ');
+  header.push_back('\n');
+  const uint16_t len = uint16_t(header.size());
+  s.write("\x93NUMPY\x01\x00", 8);
+  const char lenBytes[2] = {char(len & 0xff), char(len >> 8)};
+  s.write(lenBytes, 2);
+  s.write(header.data(), std::streamsize(header.size()));
+}
+
 } // namespace tetflow

@@ -54,4 +54,8 @@ private:
   bool committed_ = false;
 };
 
+// NumPy format 1.0 header of a little-endian float64, C-order array of `shape` (padded so the
+// data starts at a multiple of 64 bytes); the caller writes the values after it.
+void writeNpyFloat64Header(std::ostream& out, const std::vector<size_t>& shape);
+
 } // namespace tetflow

@@ -132,4 +132,18 @@ inline TetMesh cubedShell(int m, double r0, double r1, double r2, std::vector<in
   return out;
 }
 
+// Solid ball of radius R about the origin with vertices on the sphere ("cubed ball"): the Kuhn
+// split of the cube [-h, h]^3 (2h cells per axis), each vertex x mapped to x |x|_inf / |x|_2 *
+// R / h, so every cube shell |x|_inf = s lands on the sphere of radius s R / h. One material
+// (label 1). The boundary vertices lie exactly on the sphere r = R.
+inline TetMesh cubedBall(int h, double R) {
+  TetMesh m = kuhnBox({2 * h, 2 * h, 2 * h}, {-double(h), -double(h), -double(h)}, {double(h), double(h), double(h)});
+  for (auto& p : m.points) {
+    const double inf = std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
+    const double two = norm(p);
+    if (two > 0) p = (inf / two * R / double(h)) * p;
+  }
+  return m;
+}
+
 } // namespace tetflow::test
