@@ -41,4 +41,15 @@ SolverParams solverParamsFrom(const ExecutionContext& ctx) {
   return p;
 }
 
+ParamSpec sourceModelParamSpec() {
+  ParamSpec model = makeParam("source_model", ParamType::Enum, std::string("partial_integration"), "",
+                              "dipole: partial_integration (load m . grad phi on the dipole's tet, or two "
+                              "monopoles with dipole_separation > 0) or venant (St. Venant: monopoles on "
+                              "the nearest vertex and its neighbours matching the moments to second order)");
+  model.choices = {"partial_integration", "venant"};
+  return model;
+}
+
+bool venantFrom(const ExecutionContext& ctx) { return ctx.getString("source_model") == "venant"; }
+
 } // namespace tetflow

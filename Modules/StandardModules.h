@@ -54,6 +54,10 @@ std::vector<ParamSpec> conductivityParamSpecs();
 // added to `report`.
 ConductivityTable conductivitiesFrom(const ExecutionContext& ctx, const TetMesh& mesh, Report& report);
 SolverParams solverParamsFrom(const ExecutionContext& ctx);
+// `source_model` (partial_integration | venant): how a dipole becomes a load (FEM/SourceModels.h),
+// shared by AssembleFEMPoisson and the lead fields; true for venant.
+ParamSpec sourceModelParamSpec();
+bool venantFrom(const ExecutionContext& ctx);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);

@@ -10,6 +10,7 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/MemoryBudget.h"
+#include "Algorithms/FEM/SourceModels.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Assembly.h"
 #include "BoundaryConditions.h"
@@ -158,7 +159,7 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   NullProgress quiet; // the solver's own fraction would hide the per-electrode one
   solver.setProgress(&quiet);
   Eigen::VectorXd x;
-  const auto& q = mesh.tets;
+  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.venant);
   double mSeconds = 0;
   for (size_t e = 0; e < ne; ++e) {
     progress.checkCancel();
@@ -180,13 +181,9 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
     const auto tm = std::chrono::steady_clock::now();
     const Eigen::VectorXd u = sys.expand(x);
 #pragma omp parallel for schedule(static)
-    for (int64_t s = 0; s < int64_t(ns); ++s) {
-      const size_t t = size_t(res.sourceTets[size_t(s)]);
-      const TetGradients g = tetGradients(mesh, t);
-      Vec3 grad{0, 0, 0};
-      for (int a = 0; a < 4; ++a) grad = grad + u[q[t][a]] * g.grad[size_t(a)];
-      for (int k = 0; k < 3; ++k) res.matrix(Eigen::Index(e), Eigen::Index(3 * s + k)) = grad[size_t(k)];
-    }
+    for (int64_t s = 0; s < int64_t(ns); ++s)
+      for (int k = 0; k < 3; ++k)
+        res.matrix(Eigen::Index(e), Eigen::Index(3 * s + k)) = loads.apply(size_t(3 * s + k), u);
     mSeconds += secondsSince(tm);
     progress.report(double(e + 1) / double(ne));
   }

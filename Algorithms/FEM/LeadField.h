@@ -44,6 +44,7 @@ struct LeadFieldParams {
   std::vector<int32_t> sourceLabels; // sources at the centroids of these labels' tets, or
   std::vector<Vec3> sourcePoints;    // at these points
   SolverParams solver;
+  bool venant = false;               // source model: St. Venant (SourceModels.h), else partial integration
 };
 
 struct LeadFieldResult {

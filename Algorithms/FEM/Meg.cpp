@@ -1,4 +1,5 @@
 #include "Meg.h"
+#include "SourceModels.h"
 
 #include <algorithm>
 #include <chrono>
@@ -413,6 +414,7 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
   solver.setProgress(&quiet);
   Eigen::VectorXd x;
   const auto& q = mesh.tets;
+  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.venant);
   double kSeconds = 0, mSeconds = 0, sSeconds = 0;
   for (size_t c = 0; c < nc; ++c) {
     progress.checkCancel();
@@ -449,17 +451,13 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
     const Eigen::VectorXd u = sys.expand(x);
 #pragma omp parallel for schedule(static)
     for (int64_t s = 0; s < int64_t(ns); ++s) {
-      const size_t t = size_t(res.sourceTets[size_t(s)]);
-      const TetGradients g = tetGradients(mesh, t);
-      Vec3 grad{0, 0, 0};
-      for (int a = 0; a < 4; ++a) grad = grad + u[q[t][size_t(a)]] * g.grad[size_t(a)];
       const Vec3& r0 = res.sources[size_t(s)];
       for (int k = 0; k < 3; ++k) {
         Vec3 e{0, 0, 0};
         e[size_t(k)] = 1.0;
         const double b0 = sensorSignal(sensor, [&](const Vec3& r) { return megPrimaryField(r, r0, e); });
         res.primary(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0;
-        res.matrix(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0 + grad[size_t(k)];
+        res.matrix(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0 + loads.apply(size_t(3 * s + k), u);
       }
     }
     mSeconds += secondsSince(tm);

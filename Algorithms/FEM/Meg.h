@@ -156,6 +156,7 @@ struct MegLeadFieldParams {
   std::vector<int32_t> sourceLabels;
   std::vector<Vec3> sourcePoints;
   SolverParams solver;
+  bool venant = false; // source model of the volume currents: St. Venant, else partial integration
 };
 struct MegLeadFieldResult {
   std::vector<std::string> names;  // sensors (rows)

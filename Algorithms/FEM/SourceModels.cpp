@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/FEM/Assembly.h"
@@ -84,6 +85,34 @@ std::vector<int32_t> VenantSources::add(const Vec3& position, const Vec3& moment
     used.push_back(v);
   }
   return used;
+}
+
+DipoleLoads dipoleLoads(const TetMesh& mesh, const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets,
+                        bool venant) {
+  DipoleLoads loads;
+  loads.offset.push_back(0);
+  std::optional<VenantSources> v;
+  if (venant) v.emplace(mesh);
+  for (size_t s = 0; s < sources.size(); ++s) {
+    const TetGradients g = tetGradients(mesh, size_t(sourceTets[s]));
+    for (int k = 0; k < 3; ++k) {
+      if (venant) {
+        Vec3 e{0, 0, 0};
+        e[size_t(k)] = 1.0;
+        for (const auto& [vertex, q] : v->monopoles(sources[s], e)) {
+          loads.vertex.push_back(vertex);
+          loads.weight.push_back(q);
+        }
+      } else {
+        for (int a = 0; a < 4; ++a) {
+          loads.vertex.push_back(mesh.tets[size_t(sourceTets[s])][size_t(a)]);
+          loads.weight.push_back(g.grad[size_t(a)][size_t(k)]);
+        }
+      }
+      loads.offset.push_back(int64_t(loads.vertex.size()));
+    }
+  }
+  return loads;
 }
 
 } // namespace tetflow

@@ -45,4 +45,22 @@ private:
   std::vector<int32_t> neighbours_;
 };
 
+// The load of a unit dipole along each axis at each source, for lead fields: column 3 s + k is
+// the list of (vertex, weight) pairs [offset[3 s + k], offset[3 s + k + 1]). Partial
+// integration: the gradients' k-th components of the 4 barycentric functions of the source's tet
+// (sourceTets[s]); Venant: the monopoles of a unit moment along axis k. A lead field entry is then
+// sum weight * u_e[vertex] (reciprocity: exactly what a direct solve with that load gives).
+struct DipoleLoads {
+  std::vector<int64_t> offset;
+  std::vector<int32_t> vertex;
+  std::vector<double> weight;
+  double apply(size_t column, const Eigen::VectorXd& u) const {
+    double sum = 0;
+    for (int64_t i = offset[column]; i < offset[column + 1]; ++i) sum += weight[size_t(i)] * u[vertex[size_t(i)]];
+    return sum;
+  }
+};
+DipoleLoads dipoleLoads(const TetMesh& mesh, const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets,
+                        bool venant);
+
 } // namespace tetflow

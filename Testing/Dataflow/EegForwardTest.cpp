@@ -187,6 +187,54 @@ TEST(EegForward, VenantBeatsPartialIntegrationAtHighEccentricity) {
   }
 }
 
+// Reciprocity holds for the St. Venant source model too: ComputeLeadField with source_model venant
+// equals AssembleFEMPoisson's direct Venant solves at the electrodes.
+TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 12));
+  const char* sources[] = {"0 0 5", "4 -3 2", "-6 2 -4"};
+  test::writeBytes(dir.file("src.csv"), "x,y,z\n0,0,5\n4,-3,2\n-6,2,-4\n");
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "20 17 14 12", 1.0, 3.0);
+  net.addModule("ComputeLeadField", "lf");
+  net.setParameterText("lf", "conductivities", kSigma);
+  net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
+  net.setParameterText("lf", "sources_file", dir.file("src.csv"));
+  net.setParameterText("lf", "tolerance", "1e-12");
+  net.setParameterText("lf", "source_model", "venant");
+  net.setParameterText("lf", "filename", dir.file("lf.npy"));
+  net.connect("cl", 0, "lf", 0);
+  const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
+  for (int s = 0; s < 3; ++s)
+    for (int k = 0; k < 3; ++k) {
+      const std::string id = dipoleId(s, k);
+      addDipole(net, id, sources[s], axes[k]);
+      net.setParameterText(id, "tolerance", "1e-12");
+      net.setParameterText(id, "source_model", "venant");
+    }
+  Executor exec;
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("lf")->error;
+  EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("source_model")), "venant");
+  const Eigen::MatrixXd& L = leadField(exec, "lf");
+  const std::vector<int32_t> vertex = snappedVertices(dir.file("lf.npy.electrodes.csv"));
+  ASSERT_EQ(vertex.size(), 12u);
+  double worst = 0, largest = 0;
+  for (int s = 0; s < 3; ++s)
+    for (int k = 0; k < 3; ++k) {
+      const TetMesh& m = dynamic_cast<const TetMeshData&>(*exec.state(dipoleId(s, k))->outputs.at(0)).value;
+      const auto& u = m.pointFields.at("potential").values;
+      Eigen::VectorXd direct(12);
+      for (int e = 0; e < 12; ++e) direct[e] = u[size_t(vertex[size_t(e)])];
+      direct.array() -= direct.mean();
+      worst = std::max(worst, (L.col(3 * s + k) - direct).norm() / direct.norm());
+      largest = std::max(largest, direct.norm());
+    }
+  EXPECT_GT(largest, 0.0);
+  EXPECT_LT(worst, 1e-7) << "Venant lead field vs direct Venant solves, largest relative difference";
+}
+
 TEST(EegForward, LeadFieldEqualsDirectDipoleSolves) {
   test::TempDir dir;
   test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 12));

@@ -131,6 +131,59 @@ TEST(MegModules, LeadFieldEqualsDirectSolvesAndComputeMEG) {
   EXPECT_FALSE(readFileBytes(dir.file("lf.npy.sensors.csv")).empty());
 }
 
+// The MEG lead field with source_model venant equals ComputeMEG on direct Venant solves.
+TEST(MegModules, VenantLeadFieldEqualsDirectVenantSolves) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("sensors.txt"), sensorCsv());
+  test::writeBytes(dir.file("src.csv"), "x,y,z\n4,-3,2\n-6,2,-4\n");
+  const char* sources[] = {"4 -3 2", "-6 2 -4"};
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addSmallHead(net);
+  net.addModule("ComputeMegLeadField", "lf");
+  net.setParameterText("lf", "conductivities", kSigma);
+  net.setParameterText("lf", "sensors_file", dir.file("sensors.txt"));
+  net.setParameterText("lf", "sources_file", dir.file("src.csv"));
+  net.setParameterText("lf", "tolerance", "1e-12");
+  net.setParameterText("lf", "source_model", "venant");
+  net.connect("cl", 0, "lf", 0);
+  const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
+  for (int s = 0; s < 2; ++s)
+    for (int k = 0; k < 3; ++k) {
+      char id[8], mid[8];
+      std::snprintf(id, sizeof id, "d%d%d", s, k);
+      std::snprintf(mid, sizeof mid, "b%d%d", s, k);
+      net.addModule("AssembleFEMPoisson", id);
+      net.setParameterText(id, "conductivities", kSigma);
+      net.setParameterText(id, "boundary_condition", "dipole");
+      net.setParameterText(id, "dipole_position", sources[s]);
+      net.setParameterText(id, "dipole_moment", axes[k]);
+      net.setParameterText(id, "tolerance", "1e-12");
+      net.setParameterText(id, "condition_numbers", "false");
+      net.setParameterText(id, "source_model", "venant");
+      net.connect("cl", 0, id, 0);
+      net.addModule("ComputeMEG", mid);
+      net.setParameterText(mid, "conductivities", kSigma);
+      net.setParameterText(mid, "sensors_file", dir.file("sensors.txt"));
+      net.setParameterText(mid, "dipole_position", sources[s]);
+      net.setParameterText(mid, "dipole_moment", axes[k]);
+      net.connect(id, 0, mid, 0);
+    }
+  Executor exec;
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("lf")->error;
+  const Eigen::MatrixXd& L = matrixOut(exec, "lf");
+  double worst = 0;
+  for (int s = 0; s < 2; ++s)
+    for (int k = 0; k < 3; ++k) {
+      char mid[8];
+      std::snprintf(mid, sizeof mid, "b%d%d", s, k);
+      const Eigen::MatrixXd& B = matrixOut(exec, mid);
+      worst = std::max(worst, (L.col(3 * s + k) - B.col(0)).norm() / B.col(2).norm());
+    }
+  EXPECT_LT(worst, 1e-7);
+}
+
 TEST(MegModules, ErrorsNameTheSensorFileAndTheMissingPotential) {
   test::TempDir dir;
   test::writeBytes(dir.file("bad.csv"), "A 0 0 30 0 0 1\nB 0 0 30 0 0\n");
