@@ -54,6 +54,13 @@ private:
 // Parameters as text, plus size and time of input files: what a result depends on besides data.
 std::string signatureOf(const ModuleNode& m, const std::string& baseDir) {
   std::ostringstream s;
+  auto stamp = [&](const std::string& what, const std::filesystem::path& p) { // size and time, 0 0 if absent
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(p, ec);
+    const auto time = std::filesystem::last_write_time(p, ec);
+    s << what << ' ' << p.string() << ' ' << (ec ? 0 : size) << ' ' << (ec ? 0 : time.time_since_epoch().count())
+      << '\n';
+  };
   s << m.info->name << '\n';
   for (const auto& spec : m.info->params) {
     auto it = m.params.find(spec.name);
@@ -66,21 +73,12 @@ std::string signatureOf(const ModuleNode& m, const std::string& baseDir) {
       for (const auto& f : files) {
         std::filesystem::path p(f);
         if (p.is_relative() && !baseDir.empty()) p = std::filesystem::path(baseDir) / p;
-        std::error_code ec;
-        const auto size = std::filesystem::file_size(p, ec);
-        const auto time = std::filesystem::last_write_time(p, ec);
-        s << "  file " << p.string() << ' ' << (ec ? 0 : size) << ' '
-          << (ec ? 0 : time.time_since_epoch().count()) << '\n';
+        stamp("  file", p);
       }
     }
   }
   if (m.info->sideFiles)
-    for (const std::string& f : m.info->sideFiles(m.params, baseDir)) {
-      std::error_code ec;
-      const auto size = std::filesystem::file_size(f, ec);
-      const auto time = std::filesystem::last_write_time(f, ec);
-      s << "side file " << f << ' ' << (ec ? 0 : size) << ' ' << (ec ? 0 : time.time_since_epoch().count()) << '\n';
-    }
+    for (const std::string& f : m.info->sideFiles(m.params, baseDir)) stamp("side file", f);
   return s.str();
 }
 

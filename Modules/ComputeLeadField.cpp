@@ -18,10 +18,9 @@ public:
     const TetMesh& mesh = ctx.inputAs<TetMeshData>(0).value;
     LeadFieldParams p;
     p.conductivities = conductivitiesFrom(ctx, mesh, ctx.report());
-    const std::string efile = ctx.getPath("electrodes_file");
     if (ctx.getString("electrodes_file").empty())
       throw InputError("electrodes_file: give the electrode positions (.csv/.tsv/.txt name,x,y,z in mm, .elc or .sfp)");
-    p.electrodes = readElectrodes(efile, ctx.getDouble("electrode_unit_scale"));
+    p.electrodes = readElectrodes(ctx.getPath("electrodes_file"), ctx.getDouble("electrode_unit_scale"));
     p.reference = ctx.getString("reference");
     p.sourceLabels = parseLabels(ctx.getList("source_labels"), "source_labels");
     if (!ctx.getString("sources_file").empty())

@@ -201,22 +201,19 @@ public:
                            std::to_string(c.misorientedEdges) + " misoriented edge(s)");
       if (self > 0)
         problems.push_back("surface '" + spec.name + "' crosses itself (" + std::to_string(self) + " triangle pairs)");
-      if (inPrevious(i)) {
-        const int64_t shared = sharedVertices(surfaces[i - 1], s);
-        if (shared > 0)
-          problems.push_back("surfaces '" + specs[i - 1].name + "' and '" + spec.name + "' touch at " +
-                             std::to_string(shared) + " vertex(es)");
-      }
       ctx.progress().checkCancel();
     }
     // Nesting, listed outer to inner: each set holds the next, and the surfaces should neither
     // touch (share a vertex) nor cross.
     for (size_t i = 0; i + 1 < specs.size(); ++i) {
-      const bool nested = std::includes(specs[i].labels.begin(), specs[i].labels.end(), specs[i + 1].labels.begin(),
-                                        specs[i + 1].labels.end());
+      const bool nested = inPrevious(i + 1);
       const std::string k = "surface_" + specs[i].name + "_";
       rep.set(k + "holds_next", ReportValue(nested));
-      rep.set(k + "shared_vertices_with_next", ReportValue(sharedVertices(surfaces[i], surfaces[i + 1])));
+      const int64_t shared = sharedVertices(surfaces[i], surfaces[i + 1]);
+      rep.set(k + "shared_vertices_with_next", ReportValue(shared));
+      if (nested && shared > 0)
+        problems.push_back("surfaces '" + specs[i].name + "' and '" + specs[i + 1].name + "' touch at " +
+                           std::to_string(shared) + " vertex(es)");
       const int64_t crossings = crossingPairs(surfaces[i], surfaces[i + 1]);
       rep.set(k + "crossings_with_next", ReportValue(crossings));
       if (nested && crossings > 0)

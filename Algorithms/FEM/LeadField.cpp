@@ -202,54 +202,55 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   return res;
 }
 
-void writeLeadField(const LeadFieldResult& r, const TetMesh& mesh, const std::string& path) {
+void writeLeadFieldMatrix(const std::string& path, const std::string& what, const std::string& rowTitle,
+                          const std::vector<std::string>& names, const Eigen::MatrixXd& matrix,
+                          const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets) {
   const std::string ext = fileExtension(path);
-  const size_t ne = r.names.size(), ns = r.sources.size();
+  const size_t nr = names.size(), ns = sources.size();
   if (ext != ".npy" && ext != ".csv")
-    throw InputError("lead field file " + path + ": unknown extension '" + ext + "'; use .npy (binary) or .csv (text)");
+    throw InputError(what + " file " + path + ": unknown extension '" + ext + "'; use .npy (binary) or .csv (text)");
   {
     AtomicOutputFile out(path, ext == ".npy");
     auto& s = out.stream();
     if (ext == ".npy") {
-      writeNpyFloat64Header(s, {ne, ns, 3});
-      // Row-major (electrode, source, axis): the matrix row e, in column order.
+      writeNpyFloat64Header(s, {nr, ns, 3});
+      // Row-major (row, source, axis): the matrix row, in column order.
       std::vector<double> row(3 * ns);
-      for (size_t e = 0; e < ne; ++e) {
-        for (size_t c = 0; c < 3 * ns; ++c) row[c] = r.matrix(Eigen::Index(e), Eigen::Index(c));
+      for (size_t e = 0; e < nr; ++e) {
+        for (size_t c = 0; c < 3 * ns; ++c) row[c] = matrix(Eigen::Index(e), Eigen::Index(c));
         s.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(double)));
       }
     } else {
-      s << "electrode";
+      s << rowTitle;
       for (size_t j = 0; j < ns; ++j) s << ",s" << j << "_x,s" << j << "_y,s" << j << "_z";
       s << "\n" << std::setprecision(17);
-      for (size_t e = 0; e < ne; ++e) {
-        s << r.names[e];
-        for (size_t c = 0; c < 3 * ns; ++c) s << ',' << r.matrix(Eigen::Index(e), Eigen::Index(c));
+      for (size_t e = 0; e < nr; ++e) {
+        s << names[e];
+        for (size_t c = 0; c < 3 * ns; ++c) s << ',' << matrix(Eigen::Index(e), Eigen::Index(c));
         s << "\n";
       }
     }
     out.commit();
   }
-  {
-    AtomicOutputFile out(path + ".electrodes.csv", false);
-    auto& s = out.stream();
-    s << "name,x,y,z,vertex,vertex_x,vertex_y,vertex_z,distance_mm\n" << std::setprecision(10);
-    for (size_t e = 0; e < ne; ++e) {
-      const Vec3& p = mesh.points[size_t(r.vertex[e])];
-      s << r.names[e] << ',' << r.given[e][0] << ',' << r.given[e][1] << ',' << r.given[e][2] << ',' << r.vertex[e]
-        << ',' << p[0] << ',' << p[1] << ',' << p[2] << ',' << r.snapDistance[e] << "\n";
-    }
-    out.commit();
+  AtomicOutputFile out(path + ".sources.csv", false);
+  auto& s = out.stream();
+  s << "index,x,y,z,tet\n" << std::setprecision(10);
+  for (size_t j = 0; j < ns; ++j)
+    s << j << ',' << sources[j][0] << ',' << sources[j][1] << ',' << sources[j][2] << ',' << sourceTets[j] << "\n";
+  out.commit();
+}
+
+void writeLeadField(const LeadFieldResult& r, const TetMesh& mesh, const std::string& path) {
+  writeLeadFieldMatrix(path, "lead field", "electrode", r.names, r.matrix, r.sources, r.sourceTets);
+  AtomicOutputFile out(path + ".electrodes.csv", false);
+  auto& s = out.stream();
+  s << "name,x,y,z,vertex,vertex_x,vertex_y,vertex_z,distance_mm\n" << std::setprecision(10);
+  for (size_t e = 0; e < r.names.size(); ++e) {
+    const Vec3& p = mesh.points[size_t(r.vertex[e])];
+    s << r.names[e] << ',' << r.given[e][0] << ',' << r.given[e][1] << ',' << r.given[e][2] << ',' << r.vertex[e]
+      << ',' << p[0] << ',' << p[1] << ',' << p[2] << ',' << r.snapDistance[e] << "\n";
   }
-  {
-    AtomicOutputFile out(path + ".sources.csv", false);
-    auto& s = out.stream();
-    s << "index,x,y,z,tet\n" << std::setprecision(10);
-    for (size_t j = 0; j < ns; ++j)
-      s << j << ',' << r.sources[j][0] << ',' << r.sources[j][1] << ',' << r.sources[j][2] << ',' << r.sourceTets[j]
-        << "\n";
-    out.commit();
-  }
+  out.commit();
 }
 
 } // namespace tetflow

@@ -82,4 +82,12 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
 // extension or an unwritable folder.
 void writeLeadField(const LeadFieldResult& r, const TetMesh& mesh, const std::string& path);
 
+// What the EEG and MEG lead field files share: the matrix (rows x 3 sources) to `path` as .npy
+// (shape (rows, sources, 3)) or .csv (header "rowTitle,s0_x,s0_y,s0_z,...", a row per name), and
+// the sources to PATH.sources.csv (index, x, y, z, tet), atomically. InputError naming `what`
+// and the file for another extension, before anything is written.
+void writeLeadFieldMatrix(const std::string& path, const std::string& what, const std::string& rowTitle,
+                          const std::vector<std::string>& names, const Eigen::MatrixXd& matrix,
+                          const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets);
+
 } // namespace tetflow

@@ -478,52 +478,16 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
 }
 
 void writeMegLeadField(const MegLeadFieldResult& r, const std::vector<MegSensor>& sensors, const std::string& path) {
-  const std::string ext = fileExtension(path);
-  const size_t nc = r.names.size(), ns = r.sources.size();
-  if (ext != ".npy" && ext != ".csv")
-    throw InputError("MEG lead field file " + path + ": unknown extension '" + ext + "'; use .npy (binary) or .csv (text)");
-  {
-    AtomicOutputFile out(path, ext == ".npy");
-    auto& s = out.stream();
-    if (ext == ".npy") {
-      writeNpyFloat64Header(s, {nc, ns, 3});
-      std::vector<double> row(3 * ns);
-      for (size_t c = 0; c < nc; ++c) {
-        for (size_t j = 0; j < 3 * ns; ++j) row[j] = r.matrix(Eigen::Index(c), Eigen::Index(j));
-        s.write(reinterpret_cast<const char*>(row.data()), std::streamsize(row.size() * sizeof(double)));
-      }
-    } else {
-      s << "sensor";
-      for (size_t j = 0; j < ns; ++j) s << ",s" << j << "_x,s" << j << "_y,s" << j << "_z";
-      s << "\n" << std::setprecision(17);
-      for (size_t c = 0; c < nc; ++c) {
-        s << r.names[c];
-        for (size_t j = 0; j < 3 * ns; ++j) s << ',' << r.matrix(Eigen::Index(c), Eigen::Index(j));
-        s << "\n";
-      }
-    }
-    out.commit();
+  writeLeadFieldMatrix(path, "MEG lead field", "sensor", r.names, r.matrix, r.sources, r.sourceTets);
+  AtomicOutputFile out(path + ".sensors.csv", false);
+  auto& s = out.stream();
+  s << "name,coils,x,y,z,nx,ny,nz\n" << std::setprecision(10);
+  for (const MegSensor& m : sensors) {
+    const MegCoil& c = m.coils.front();
+    s << m.name << ',' << m.coils.size() << ',' << c.position[0] << ',' << c.position[1] << ',' << c.position[2]
+      << ',' << c.normal[0] << ',' << c.normal[1] << ',' << c.normal[2] << "\n";
   }
-  {
-    AtomicOutputFile out(path + ".sensors.csv", false);
-    auto& s = out.stream();
-    s << "name,coils,x,y,z,nx,ny,nz\n" << std::setprecision(10);
-    for (const MegSensor& m : sensors) {
-      const MegCoil& c = m.coils.front();
-      s << m.name << ',' << m.coils.size() << ',' << c.position[0] << ',' << c.position[1] << ',' << c.position[2]
-        << ',' << c.normal[0] << ',' << c.normal[1] << ',' << c.normal[2] << "\n";
-    }
-    out.commit();
-  }
-  {
-    AtomicOutputFile out(path + ".sources.csv", false);
-    auto& s = out.stream();
-    s << "index,x,y,z,tet\n" << std::setprecision(10);
-    for (size_t j = 0; j < ns; ++j)
-      s << j << ',' << r.sources[j][0] << ',' << r.sources[j][1] << ',' << r.sources[j][2] << ',' << r.sourceTets[j]
-        << "\n";
-    out.commit();
-  }
+  out.commit();
 }
 
 MegErrors compareMeg(const std::vector<double>& u, const std::vector<double>& v) {

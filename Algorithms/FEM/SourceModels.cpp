@@ -12,27 +12,7 @@
 
 namespace tetflow {
 
-VenantSources::VenantSources(const TetMesh& mesh) : mesh_(mesh) {
-  // Vertex -> vertices sharing a tet (CSR), the vertex itself left out.
-  const size_t n = mesh.numPoints();
-  std::vector<std::vector<int32_t>> around(n);
-  for (const auto& t : mesh.tets)
-    for (int a = 0; a < 4; ++a)
-      for (int c = 0; c < 4; ++c)
-        if (a != c) around[size_t(t[size_t(a)])].push_back(t[size_t(c)]);
-  offset_.assign(n + 1, 0);
-  for (size_t v = 0; v < n; ++v) {
-    auto& a = around[v];
-    std::sort(a.begin(), a.end());
-    a.erase(std::unique(a.begin(), a.end()), a.end());
-    offset_[v + 1] = offset_[v] + int64_t(a.size());
-  }
-  neighbours_.reserve(size_t(offset_[n]));
-  for (auto& a : around) {
-    neighbours_.insert(neighbours_.end(), a.begin(), a.end());
-    std::vector<int32_t>().swap(a);
-  }
-}
+VenantSources::VenantSources(const TetMesh& mesh) : mesh_(mesh), stars_(vertexStars(mesh)) {}
 
 std::vector<std::pair<int32_t, double>> VenantSources::monopoles(const Vec3& x, const Vec3& M) const {
   const double m = norm(M);
@@ -46,8 +26,14 @@ std::vector<std::pair<int32_t, double>> VenantSources::monopoles(const Vec3& x, 
   int32_t x0 = tet[0];
   for (int a = 1; a < 4; ++a)
     if (norm(mesh_.points[size_t(tet[size_t(a)])] - x) < norm(mesh_.points[size_t(x0)] - x)) x0 = tet[size_t(a)];
-  std::vector<int32_t> verts{x0};
-  verts.insert(verts.end(), neighbours_.begin() + offset_[size_t(x0)], neighbours_.begin() + offset_[size_t(x0) + 1]);
+  // x0 first, then the other vertices of the tets around it.
+  std::vector<int32_t> verts;
+  for (int64_t i = stars_.offset[size_t(x0)]; i < stars_.offset[size_t(x0) + 1]; ++i)
+    for (int32_t w : mesh_.tets[size_t(stars_.tets[size_t(i)])])
+      if (w != x0) verts.push_back(w);
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  verts.insert(verts.begin(), x0);
   const int C = int(verts.size());
   std::vector<Vec3> dx(static_cast<size_t>(C));
   double a = 0;

@@ -26,10 +26,11 @@
 #include <vector>
 
 #include "Algorithms/Core/TetMesh.h"
+#include "Algorithms/Quality/LabelTopology.h"
 
 namespace tetflow {
 
-// The vertices around each vertex (sharing a tet), built once for many sources.
+// The tets around each vertex (Quality/LabelTopology.h vertexStars), built once for many sources.
 class VenantSources {
 public:
   explicit VenantSources(const TetMesh& mesh);
@@ -41,8 +42,7 @@ public:
 
 private:
   const TetMesh& mesh_;
-  std::vector<int64_t> offset_;
-  std::vector<int32_t> neighbours_;
+  VertexStars stars_;
 };
 
 // The load of a unit dipole along each axis at each source, for lead fields: column 3 s + k is

@@ -349,6 +349,7 @@ TEST(EegForward, LeadFieldSourcesFromLabelsAndErrors) {
   fails("reference", "Cz", "reference 'Cz' is not an electrode name");
   net.setParameterText("lf", "reference", "average");
   fails("electrodes_file", dir.file("missing.csv"), "missing.csv");
+  fails("electrodes_file", "", "electrodes_file: give the electrode positions");
   net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
   fails("filename", dir.file("lf.mat"), "use .npy (binary) or .csv (text)");
   net.setParameterText("lf", "filename", "");
