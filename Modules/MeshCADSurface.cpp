@@ -59,6 +59,7 @@ public:
     r.set("curve_splits", res.triangulation.curveSplits);
     r.set("encroaching_removed", res.triangulation.encroachingRemoved);
     r.set("surface_flips", res.triangulation.flips);
+    r.set("pole_folds_cancelled", res.triangulation.foldsCancelled);
     r.set("surface_smoothing_moves", res.smoothed);
     const SurfaceFigures& f = res.figures;
     r.set("surface_vertices", f.vertices);

@@ -108,6 +108,7 @@ private:
   std::vector<std::vector<LoopPoint>> buildLoops(int p, Sym2& scale);
   int removeEncroaching(int p, const PatchMesh& pm);
   void keepInside(PatchMesh& pm, const Triangulation2D& tri, int p);
+  void cancelFolds(PatchMesh& pm);
   void applySplit(const SplitRequest& s);
   void splitRepeatedCurveEdges();
   void flipPatch(int p, std::unordered_map<uint64_t, int>& edgeCount);
@@ -379,6 +380,54 @@ void Triangulator::keepInside(PatchMesh& pm, const Triangulation2D& tri, int p) 
     }
     pm.triangles.push_back(flip ? std::array<int, 3>{tr[0], tr[2], tr[1]} : std::array<int, 3>{tr[0], tr[1], tr[2]});
   }
+  cancelFolds(pm);
+}
+
+// Near a pole the parameters stretch the circles of latitude without bound, so a particle can sit
+// between another particle and the degenerate edge in (u, v) while both touch that edge: lifted,
+// the two triangles that join them to the pole are one triangle twice, in opposite directions (a
+// fold). Such pairs cancel: dropping both keeps every edge's balance of directions, and the
+// particle between them, touching only the pole and the other, leaves the surface.
+void Triangulator::cancelFolds(PatchMesh& pm) {
+  auto P = [&](int local) { return pm.particle[size_t(local)]; };
+  struct Key {
+    std::array<int, 3> v;
+    bool operator==(const Key& o) const { return v == o.v; }
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const {
+      return std::hash<uint64_t>()((uint64_t(uint32_t(k.v[0])) << 42) ^ (uint64_t(uint32_t(k.v[1])) << 21) ^
+                                   uint64_t(uint32_t(k.v[2])));
+    }
+  };
+  // Sorted particles -> triangles (+1 + index for an even permutation of the sorted order, -1 - index
+  // for an odd one).
+  std::unordered_map<Key, std::vector<int>, Hash> seen;
+  bool any = false;
+  for (size_t t = 0; t < pm.triangles.size(); ++t) {
+    std::array<int, 3> v{P(pm.triangles[t][0]), P(pm.triangles[t][1]), P(pm.triangles[t][2])};
+    // Rotate the smallest first; the orientation is then whether the other two ascend.
+    while (v[0] > v[1] || v[0] > v[2]) v = {v[1], v[2], v[0]};
+    const bool even = v[1] < v[2];
+    if (!even) std::swap(v[1], v[2]);
+    auto& list = seen[Key{v}];
+    list.push_back(even ? int(t) + 1 : -int(t) - 1);
+    any = any || list.size() > 1;
+  }
+  if (!any) return;
+  std::vector<char> drop(pm.triangles.size(), 0);
+  for (auto& [key, list] : seen) {
+    if (list.size() < 2) continue;
+    std::vector<int> pos, neg;
+    for (int e : list) (e > 0 ? pos : neg).push_back(e > 0 ? e - 1 : -e - 1);
+    const size_t pairs = std::min(pos.size(), neg.size());
+    for (size_t i = 0; i < pairs; ++i) drop[size_t(pos[i])] = drop[size_t(neg[i])] = 1;
+    stats_.foldsCancelled += int64_t(pairs);
+  }
+  size_t k = 0;
+  for (size_t t = 0; t < pm.triangles.size(); ++t)
+    if (!drop[t]) pm.triangles[k++] = pm.triangles[t];
+  pm.triangles.resize(k);
 }
 
 PatchOutcome Triangulator::triangulatePatch(int p) {

@@ -51,6 +51,7 @@ struct CadTriangulationStats {
   int64_t encroachingRemoved = 0; // patch particles removed for encroaching upon a boundary segment
   int64_t flips = 0;              // 3-D edge flips
   int64_t degenerateDropped = 0;  // lifted triangles with a repeated particle (poles)
+  int64_t foldsCancelled = 0;     // pairs of lifted triangles on the same particles in opposite directions
 };
 
 // Triangulates every patch in its (affinely scaled) parameter space and stitches the patches along

@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
   std::filesystem::create_directories(dir);
   auto models = testing::testModels();
   models.push_back({"electrode_in_tissue", testing::electrodeInTissue, 6});
-  models.push_back({"four_shell_sphere", testing::fourShellSphere, 14});
+  models.push_back({"four_shell_sphere", testing::fourShellSphere, 8});
   for (const auto& tm : models) {
     const TopoDS_Shape shape = tm.make();
     auto model = testing::modelOf(shape, tm.name); // checks it

@@ -131,3 +131,46 @@ TEST(CadMesher, TestModelsGiveClosedSurfacesOnTheirPatchesAndValidTets) {
                 r.seconds[2], r.seconds[3]);
   }
 }
+
+TEST(CadMesher, FourShellSphereGivesNestedClosedShellsFillingEachSolid) {
+  // Four concentric spheres (radii 78 / 80 / 86 / 92 mm) sharing their faces: each sphere is one
+  // patch with a seam and two poles. At a uniform 8 mm the parameters near a pole stretch so much
+  // that the parameter-space Delaunay triangulation folds there (two particles both touching the
+  // pole, one between the other and the degenerate edge); the folds cancel, and the surface must
+  // come out closed, of the model's topology (four spheres: Euler characteristic 8), with valid
+  // tets filling each solid to its volume.
+  auto m = modelOf(fourShellSphere(), "four_shell_sphere");
+  ASSERT_EQ(m->solids().size(), 4u);
+  CadMeshParams p;
+  p.particles.minSize = p.particles.maxSize = 8;
+  const CadMeshResult r = meshCadModel(*m, p);
+  const SurfaceFigures& f = r.figures;
+  EXPECT_EQ(f.boundaryEdges, 0);
+  EXPECT_EQ(f.nonManifoldEdges, 0);
+  EXPECT_EQ(f.inconsistentEdges, 0);
+  EXPECT_EQ(f.euler, 8);
+  EXPECT_EQ(r.modelEuler, 8);
+  EXPECT_GT(r.triangulation.foldsCancelled, 0); // the case this test is about occurred
+  std::map<int32_t, double> vol;
+  for (size_t t = 0; t < r.mesh.numTets(); ++t) {
+    const double v = r.mesh.tetVolume(t);
+    ASSERT_GT(v, 0) << "tet " << t;
+    vol[r.mesh.materials[t]] += v;
+  }
+  ASSERT_EQ(vol.size(), 4u);
+  for (size_t s = 0; s < 4; ++s)
+    EXPECT_NEAR(vol[int(s) + 1], m->solids()[s].volume, 0.01 * m->solids()[s].volume) << "solid " << s;
+  // Every surface vertex on its sphere: one of the four radii.
+  for (const Vec3& x : r.surface.points) {
+    const double radius = norm(x);
+    double best = 1e9;
+    for (double R : {78.0, 80.0, 86.0, 92.0}) best = std::min(best, std::abs(radius - R));
+    EXPECT_LT(best, 1e-6) << "a surface point at radius " << radius;
+  }
+  EXPECT_GE(r.minDihedral, 10.0);
+  EXPECT_LE(r.maxDihedral, 160.0);
+  std::printf("four_shell_sphere at 8 mm: %lld triangles (min angle %.2f°), %lld pole folds cancelled, %zu tets, "
+              "dihedral [%.2f, %.2f]\n",
+              (long long)f.triangles, f.minAngle, (long long)r.triangulation.foldsCancelled, r.mesh.numTets(),
+              r.minDihedral, r.maxDihedral);
+}
