@@ -24,7 +24,7 @@ public:
       p.dipole_position = parseVec3(ctx.getString("dipole_position"), "dipole_position");
       p.dipole_moment = parseVec3(ctx.getString("dipole_moment"), "dipole_moment");
       p.dipole_separation = ctx.getDouble("dipole_separation");
-      p.venant = venantFrom(ctx);
+      p.sourceModel = sourceModelFrom(ctx);
     }
     p.solver = solverParamsFrom(ctx);
     p.estimate_condition = ctx.getBool("estimate_condition");
@@ -104,7 +104,7 @@ void registerAssembleFEMPoisson(ModuleRegistry& r) {
                             "higher-potential electrode to the other; the potentials are scaled to "
                             "it (0 = the potentials as given)");
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5], condNumbers, inj, cp[2], sourceModelParamSpec()};
+  m.params = {cond, def, bc, axis, pots, dpos, dmom, dsep, sp[0], sp[1], sp[2], sp[3], est, maxDofs, sp[4], sp[5], condNumbers, inj, cp[2], sourceModelParamSpec(true)};
   m.summaryKeys = {"dofs", "nnz", "kappa", "iterations", "relative_residual", "converged"};
   m.factory = [] { return std::make_unique<AssembleFEMPoisson>(); };
   r.add(std::move(m));

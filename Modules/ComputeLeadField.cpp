@@ -26,7 +26,7 @@ public:
     if (!ctx.getString("sources_file").empty())
       for (const Electrode& e : readElectrodes(ctx.getPath("sources_file"), 0.0)) p.sourcePoints.push_back(e.position);
     p.solver = solverParamsFrom(ctx);
-    p.venant = venantFrom(ctx);
+    p.sourceModel = sourceModelFrom(ctx);
 
     LeadFieldResult r = computeLeadField(mesh, p, ctx.progress());
     Report& rep = ctx.report();
@@ -46,7 +46,7 @@ public:
     rep.set("snap_worst_electrode", r.names[worst]);
     rep.set("dofs", i64(r.dofs));
     rep.set("nnz", i64(r.nnz));
-    rep.set("source_model", p.venant ? "venant" : "partial_integration");
+    rep.set("source_model", sourceModelName(p.sourceModel));
     rep.set("solver", solverKindName(p.solver.kind));
     rep.set("preconditioner", preconditionerKindName(p.solver.preconditioner));
     rep.set("solver_backend", solverBackendName(p.solver.backend));
@@ -117,7 +117,7 @@ void registerComputeLeadField(ModuleRegistry& r) {
                             "the output folder");
   out.isOutputPath = true;
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec()};
+  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec(false)};
   m.summaryKeys = {"electrodes", "sources", "solves", "iterations_max", "snap_distance_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeLeadField>(); };
   r.add(std::move(m));

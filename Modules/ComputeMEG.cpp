@@ -19,6 +19,9 @@ class ComputeMEG : public Module {
 public:
   void execute(ExecutionContext& ctx) override {
     const TetMesh& mesh = ctx.inputAs<TetMeshData>(0).value;
+    if (mesh.pointFields.count("singular_potential"))
+      throw InputError("mesh: its potential comes from source_model subtraction (point field singular_potential); "
+                       "ComputeMEG's volume currents need partial_integration or venant in AssembleFEMPoisson");
     auto it = mesh.pointFields.find("potential");
     if (it == mesh.pointFields.end() || it->second.components != 1)
       throw InputError("mesh: no point field 'potential'; connect AssembleFEMPoisson's mesh output "

@@ -25,7 +25,7 @@ public:
     if (!ctx.getString("sources_file").empty())
       for (const Electrode& e : readElectrodes(ctx.getPath("sources_file"), 0.0)) p.sourcePoints.push_back(e.position);
     p.solver = solverParamsFrom(ctx);
-    p.venant = venantFrom(ctx);
+    p.sourceModel = sourceModelFrom(ctx);
 
     MegLeadFieldResult r = computeMegLeadField(mesh, p, ctx.progress());
     Report& rep = ctx.report();
@@ -38,7 +38,7 @@ public:
     rep.set("coils_inside_mesh", i64(r.coilsInsideMesh));
     rep.set("dofs", i64(r.dofs));
     rep.set("nnz", i64(r.nnz));
-    rep.set("source_model", p.venant ? "venant" : "partial_integration");
+    rep.set("source_model", sourceModelName(p.sourceModel));
     rep.set("solver", solverKindName(p.solver.kind));
     rep.set("preconditioner", preconditionerKindName(p.solver.preconditioner));
     rep.set("solver_backend", solverBackendName(p.solver.backend));
@@ -100,7 +100,7 @@ void registerComputeMegLeadField(ModuleRegistry& r) {
                             "the output folder");
   out.isOutputPath = true;
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cp[0], cp[1], sf, unit, sl, srcf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec()};
+  m.params = {cp[0], cp[1], sf, unit, sl, srcf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec(false)};
   m.summaryKeys = {"sensors", "sources", "solves", "iterations_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeMegLeadField>(); };
   r.add(std::move(m));

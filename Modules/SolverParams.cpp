@@ -41,15 +41,19 @@ SolverParams solverParamsFrom(const ExecutionContext& ctx) {
   return p;
 }
 
-ParamSpec sourceModelParamSpec() {
-  ParamSpec model = makeParam("source_model", ParamType::Enum, std::string("partial_integration"), "",
-                              "dipole: partial_integration (load m . grad phi on the dipole's tet, or two "
-                              "monopoles with dipole_separation > 0) or venant (St. Venant: monopoles on "
-                              "the nearest vertex and its neighbours matching the moments to second order)");
+ParamSpec sourceModelParamSpec(bool withSubtraction) {
+  std::string help = "dipole: partial_integration (load m . grad phi on the dipole's tet, or two monopoles with "
+                     "dipole_separation > 0) or venant (St. Venant: monopoles on the nearest vertex and its "
+                     "neighbours matching the moments to second order)";
+  if (withSubtraction)
+    help += " or subtraction (the singular potential of the dipole in the unbounded brain conductivity, in "
+            "closed form, plus a smooth correction solved by FEM)";
+  ParamSpec model = makeParam("source_model", ParamType::Enum, std::string("partial_integration"), "", help);
   model.choices = {"partial_integration", "venant"};
+  if (withSubtraction) model.choices.push_back("subtraction");
   return model;
 }
 
-bool venantFrom(const ExecutionContext& ctx) { return ctx.getString("source_model") == "venant"; }
+SourceModel sourceModelFrom(const ExecutionContext& ctx) { return sourceModelFromName(ctx.getString("source_model")); }
 
 } // namespace tetflow

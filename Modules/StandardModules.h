@@ -3,6 +3,7 @@
 // once to fill a registry.
 #include "Algorithms/FEM/Conductivity.h"
 #include "Algorithms/FEM/IterativeSolver.h"
+#include "Algorithms/FEM/SourceModels.h"
 #include "Algorithms/MeshImprovement/MeshImprovement.h"
 #include "Dataflow/ModuleRegistry.h"
 
@@ -56,8 +57,9 @@ ConductivityTable conductivitiesFrom(const ExecutionContext& ctx, const TetMesh&
 SolverParams solverParamsFrom(const ExecutionContext& ctx);
 // `source_model` (partial_integration | venant): how a dipole becomes a load (FEM/SourceModels.h),
 // shared by AssembleFEMPoisson and the lead fields; true for venant.
-ParamSpec sourceModelParamSpec();
-bool venantFrom(const ExecutionContext& ctx);
+// The source_model parameter (SourceModels.h); subtraction only where it is offered.
+ParamSpec sourceModelParamSpec(bool withSubtraction);
+SourceModel sourceModelFrom(const ExecutionContext& ctx);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);

@@ -159,7 +159,7 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   NullProgress quiet; // the solver's own fraction would hide the per-electrode one
   solver.setProgress(&quiet);
   Eigen::VectorXd x;
-  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.venant);
+  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.sourceModel);
   double mSeconds = 0;
   for (size_t e = 0; e < ne; ++e) {
     progress.checkCancel();

@@ -34,6 +34,7 @@
 #include "Algorithms/IO/ElectrodeIO.h"
 #include "Conductivity.h"
 #include "IterativeSolver.h"
+#include "SourceModels.h"
 
 namespace tetflow {
 
@@ -44,7 +45,7 @@ struct LeadFieldParams {
   std::vector<int32_t> sourceLabels; // sources at the centroids of these labels' tets, or
   std::vector<Vec3> sourcePoints;    // at these points
   SolverParams solver;
-  bool venant = false;               // source model: St. Venant (SourceModels.h), else partial integration
+  SourceModel sourceModel = SourceModel::PartialIntegration; // partial integration or Venant (SourceModels.h)
 };
 
 struct LeadFieldResult {

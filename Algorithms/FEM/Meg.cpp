@@ -414,7 +414,7 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
   solver.setProgress(&quiet);
   Eigen::VectorXd x;
   const auto& q = mesh.tets;
-  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.venant);
+  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.sourceModel);
   double kSeconds = 0, mSeconds = 0, sSeconds = 0;
   for (size_t c = 0; c < nc; ++c) {
     progress.checkCancel();

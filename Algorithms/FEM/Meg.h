@@ -69,6 +69,7 @@
 #include "Algorithms/Core/TetMesh.h"
 #include "Conductivity.h"
 #include "IterativeSolver.h"
+#include "SourceModels.h"
 
 namespace tetflow {
 
@@ -156,7 +157,7 @@ struct MegLeadFieldParams {
   std::vector<int32_t> sourceLabels;
   std::vector<Vec3> sourcePoints;
   SolverParams solver;
-  bool venant = false; // source model of the volume currents: St. Venant, else partial integration
+  SourceModel sourceModel = SourceModel::PartialIntegration; // of the volume currents: partial integration or Venant
 };
 struct MegLeadFieldResult {
   std::vector<std::string> names;  // sensors (rows)

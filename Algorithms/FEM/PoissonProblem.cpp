@@ -1,5 +1,6 @@
 #include "PoissonProblem.h"
 #include "SourceModels.h"
+#include "Subtraction.h"
 
 #include "MaterialCurrents.h"
 
@@ -8,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -108,10 +110,17 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   const SparseMatrix K = assembleStiffness(mesh, params.conductivities, progress);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(Eigen::Index(np));
   if (params.boundary == BoundaryCondition::Boundary) f = assembleLoad(mesh, params.source);
-  if (params.boundary == BoundaryCondition::Dipole && params.venant) {
+  std::optional<SubtractionSources> subtraction;
+  if (params.boundary == BoundaryCondition::Dipole && params.sourceModel != SourceModel::PartialIntegration) {
     if (params.dipole_separation != 0.0)
-      throw InputError("source_model venant places monopoles on mesh vertices: dipole_separation must be 0");
-    VenantSources(mesh).add(params.dipole_position, params.dipole_moment, f);
+      throw InputError(std::string("source_model ") + sourceModelName(params.sourceModel) +
+                       " models the dipole itself, not two monopoles: dipole_separation must be 0");
+    if (params.sourceModel == SourceModel::Venant) {
+      VenantSources(mesh).add(params.dipole_position, params.dipole_moment, f);
+    } else {
+      subtraction.emplace(mesh, params.conductivities);
+      subtraction->addLoad(params.dipole_position, params.dipole_moment, f);
+    }
     res.dipoleTets = {*locatePoint(mesh, params.dipole_position)}; // add() checked it is inside
   } else if (params.boundary == BoundaryCondition::Dipole) {
     res.dipoleTets = addDipole(mesh, params.dipole_position, params.dipole_moment,
@@ -236,6 +245,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   int32_t ncomp = 0;
   const std::vector<int32_t> comp = vertexComponents(mesh, ncomp);
   res.components = ncomp;
+  int32_t dipoleReference = -1; // the reference vertex of the dipole's piece
   {
     std::vector<uint8_t> anchored(size_t(ncomp), 0);
     for (size_t v = 0; v < np; ++v)
@@ -274,6 +284,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
         res.notes.push_back(m.str());
       }
     }
+    if (dipole) dipoleReference = ref[size_t(comp[size_t(mesh.tets[size_t(res.dipoleTets[0].tet)][0])])];
     if (dipole && ncomp > 1) {
       std::ostringstream m;
       m << "the mesh has " << ncomp << " separate pieces; each has its own 0 V reference vertex";
@@ -391,6 +402,18 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
       res.electrodes.push_back({g.name, g.potential, I, g.label});
     }
   }
+  if (subtraction && dipoleReference >= 0) {
+    // u = u_inf + w on the dipole's piece, still 0 V at its reference vertex.
+    const std::vector<double> uInf = subtraction->singularPotential(params.dipole_position, params.dipole_moment);
+    const int32_t dc = comp[size_t(dipoleReference)];
+    const double shift = uInf[size_t(dipoleReference)];
+    res.singularPotential.assign(np, 0.0);
+    for (size_t v = 0; v < np; ++v)
+      if (used[v] && comp[v] == dc) {
+        res.singularPotential[v] = uInf[v] - shift;
+        u[Eigen::Index(v)] += uInf[v] - shift;
+      }
+  }
   if (params.injected_current != 0.0) {
     // f = 0: the solution is linear in the electrode potentials, so scaling it by I / I_0 gives
     // the electrodes' potentials for the injected current (perfectly conducting electrodes).
@@ -430,6 +453,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
 
 void addPoissonFields(const PoissonResult& r, TetMesh& mesh) {
   mesh.pointFields["potential"] = Field{1, r.potential};
+  if (!r.singularPotential.empty()) mesh.pointFields["singular_potential"] = Field{1, r.singularPotential};
   mesh.cellFields["grad_magnitude"] = Field{1, r.gradMagnitude};
   mesh.cellFields["current_density"] = Field{1, r.currentDensity};
 }

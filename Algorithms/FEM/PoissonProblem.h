@@ -59,6 +59,7 @@
 #include "Conditioning.h"
 #include "Conductivity.h"
 #include "IterativeSolver.h"
+#include "SourceModels.h"
 
 namespace tetflow {
 
@@ -74,7 +75,9 @@ struct PoissonParams {
   Vec3 dipole_position{0.0, 0.0, 0.0};              // dipole: mm
   Vec3 dipole_moment{0.0, 0.0, 1.0};                // dipole: mA mm
   double dipole_separation = 0.0;                   // dipole: mm (0 = partial-integration limit)
-  bool venant = false;  // dipole: the St. Venant monopoles of SourceModels.h (separation must be 0)
+  // dipole: partial integration (Assembly.h addDipole), the St. Venant monopoles (SourceModels.h)
+  // or the subtraction model (Subtraction.h); the last two need separation 0.
+  SourceModel sourceModel = SourceModel::PartialIntegration;
   double injected_current = 0.0;  // material_electrodes with two labels: mA from the higher-
                                   // potential electrode to the other (0 = potentials as given)
   SolverParams solver;
@@ -112,6 +115,9 @@ struct PoissonResult {
   SpectrumEstimate lanczos;      // Ritz estimate from the solve itself (of M^-1 K)
 
   std::vector<double> potential;      // per vertex (V)
+  // Subtraction model: the singular part u_inf of the potential (V, shifted like it so that the
+  // reference vertex is at 0 V; 0 off the dipole's piece); empty for the other models.
+  std::vector<double> singularPotential;
   std::vector<double> gradMagnitude;  // per tet |grad u| (V/mm)
   std::vector<double> currentDensity; // per tet |sigma grad u| (mA/mm^2)
   double potentialMin = 0.0, potentialMax = 0.0;

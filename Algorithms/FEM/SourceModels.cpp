@@ -12,6 +12,21 @@
 
 namespace tetflow {
 
+const char* sourceModelName(SourceModel m) {
+  switch (m) {
+  case SourceModel::Venant: return "venant";
+  case SourceModel::Subtraction: return "subtraction";
+  case SourceModel::PartialIntegration: break;
+  }
+  return "partial_integration";
+}
+
+SourceModel sourceModelFromName(const std::string& name) {
+  for (SourceModel m : {SourceModel::PartialIntegration, SourceModel::Venant, SourceModel::Subtraction})
+    if (name == sourceModelName(m)) return m;
+  throw InputError("source_model '" + name + "': use partial_integration, venant or subtraction");
+}
+
 VenantSources::VenantSources(const TetMesh& mesh) : mesh_(mesh), stars_(vertexStars(mesh)) {}
 
 std::vector<std::pair<int32_t, double>> VenantSources::monopoles(const Vec3& x, const Vec3& M) const {
@@ -74,7 +89,10 @@ std::vector<int32_t> VenantSources::add(const Vec3& position, const Vec3& moment
 }
 
 DipoleLoads dipoleLoads(const TetMesh& mesh, const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets,
-                        bool venant) {
+                        SourceModel model) {
+  if (model == SourceModel::Subtraction)
+    throw InputError("source_model subtraction: lead fields take partial_integration or venant");
+  const bool venant = model == SourceModel::Venant;
   DipoleLoads loads;
   loads.offset.push_back(0);
   std::optional<VenantSources> v;

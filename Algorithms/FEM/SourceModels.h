@@ -23,12 +23,18 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "Algorithms/Core/TetMesh.h"
 #include "Algorithms/Quality/LabelTopology.h"
 
 namespace tetflow {
+
+// The dipole source models AssembleFEMPoisson and the lead fields offer (parameter source_model).
+enum class SourceModel { PartialIntegration, Venant, Subtraction };
+const char* sourceModelName(SourceModel m); // "partial_integration", "venant", "subtraction"
+SourceModel sourceModelFromName(const std::string& name); // InputError naming the choices
 
 // The tets around each vertex (Quality/LabelTopology.h vertexStars), built once for many sources.
 class VenantSources {
@@ -60,7 +66,8 @@ struct DipoleLoads {
     return sum;
   }
 };
+// InputError for the subtraction model, whose load is not a few vertices' (lead fields do not offer it).
 DipoleLoads dipoleLoads(const TetMesh& mesh, const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets,
-                        bool venant);
+                        SourceModel model);
 
 } // namespace tetflow

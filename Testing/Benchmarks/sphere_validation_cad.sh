@@ -5,8 +5,8 @@
 # by MeshCADSurface at uniform sizes h (min_size = max_size = h on the surfaces, TetGen's
 # max_tet_volume h³/(6·2^½), the volume of a regular tet of edge h; -q1.414/10 and the improvement
 # as shipped), then per mesh radial and tangential dipoles (0.01 mA mm) at z = 20, 40,
-# 60, 70, 74 mm (eccentricity 0.26, 0.51, 0.77, 0.90, 0.95), each with the partial-integration and
-# the St. Venant source model (AssembleFEMPoisson source_model), Jacobi-MINRES to 1e-8, and
+# 60, 70, 74 mm (eccentricity 0.26, 0.51, 0.77, 0.90, 0.95), each with the partial-integration, the St.
+# Venant and the subtraction source model (AssembleFEMPoisson source_model; MODELS picks them), Jacobi-MINRES to 1e-8, and
 # AnalyticSphereEEG at every scalp surface vertex: RDM and MAG (average reference).
 # Rows "contrast20" repeat one size with a skull of 0.0165 S/m (brain:skull 20:1), "homogeneous"
 # with every sigma 0.33, to separate the layers' error from the rest.
@@ -54,7 +54,7 @@ for di, dtext in enumerate(os.environ['DIRS'].split(';')):
   t = unit([d[1] * axis[2] - d[2] * axis[1], d[2] * axis[0] - d[0] * axis[2], d[0] * axis[1] - d[1] * axis[0]])
   for z in zs:
     for kind, m in (('radial', vec(d, 0.01)), ('tangential', vec(t, 0.01))):
-      for model in ('partial_integration', 'venant'):
+      for model in os.environ['MODELS'].split():
         f, a = f'fem_{model}_{kind}_{z}_{di}', f'an_{model}_{kind}_{z}_{di}'
         module(f, 'AssembleFEMPoisson', [('conductivities', sig), ('boundary_condition', 'dipole'),
                ('dipole_position', vec(d, z)), ('dipole_moment', m), ('condition_numbers', 'false'),
@@ -82,7 +82,7 @@ me = mods['me']
 for di, dtext in enumerate(os.environ['DIRS'].split(';')):
  for z in [int(z) for z in os.environ['ZS'].split()]:
   for kind in ('radial', 'tangential'):
-    for model in ('partial_integration', 'venant'):
+    for model in os.environ['MODELS'].split():
         f, a = mods[f'fem_{model}_{kind}_{z}_{di}'], mods[f'an_{model}_{kind}_{z}_{di}']
         fr, ar = f['report'], a['report']
         print(f"{label:12s} {size:>4s} {me['report']['tets']:8d} {fr['dofs']:8d} {me.get('seconds', 0):7.1f} "
@@ -90,7 +90,7 @@ for di, dtext in enumerate(os.environ['DIRS'].split(';')):
               f"{fr['iterations']:5d} {f.get('seconds', 0):6.1f} {ar['electrodes']:6d}")
 PY
 }
-export ZS DIRS=${DIRS:-0 0 1;0.8 0.5 0.33}
+export MODELS=${MODELS:-partial_integration venant subtraction} ZS DIRS=${DIRS:-0 0 1;0.8 0.5 0.33}
 LAYERS="1:0.33; 2:0.0042; 3:1.79; 4:0.33" # labels: solid order of the file (1 scalp, 2 skull, 3 CSF, 4 brain)
 for h in $SIZES; do run "layers" "$h" "$LAYERS" "0.33 1.79 0.0042 0.33"; done
 if [ "${EXTRA:-1}" = 1 ]; then

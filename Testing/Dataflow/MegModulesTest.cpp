@@ -206,3 +206,35 @@ TEST(MegModules, ErrorsNameTheSensorFileAndTheMissingPotential) {
   EXPECT_NE(e1.find(dir.file("bad.csv") + ", line 2: expected 7 or 8 fields"), std::string::npos) << e1;
   EXPECT_NE(e2.find("no point field 'potential'"), std::string::npos) << e2;
 }
+
+// A potential solved with the subtraction model is refused by ComputeMEG (its volume currents
+// would need the singular part's), and the lead-field modules do not offer subtraction.
+TEST(MegModules, SubtractionPotentialsAreRefusedByName) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("s.csv"), "A 0 0 30 0 0 1\n");
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addSmallHead(net);
+  net.addModule("AssembleFEMPoisson", "fem");
+  net.setParameterText("fem", "conductivities", kSigma);
+  net.setParameterText("fem", "conductivity_by_name", "false");
+  net.setParameterText("fem", "boundary_condition", "dipole");
+  net.setParameterText("fem", "dipole_position", "0 0 5");
+  net.setParameterText("fem", "source_model", "subtraction");
+  net.setParameterText("fem", "condition_numbers", "false");
+  net.connect("cl", 0, "fem", 0);
+  net.addModule("ComputeMEG", "meg");
+  net.setParameterText("meg", "sensors_file", dir.file("s.csv"));
+  net.setParameterText("meg", "dipole_position", "0 0 5");
+  net.connect("fem", 0, "meg", 0);
+  Executor exec;
+  EXPECT_FALSE(exec.execute(net).success);
+  EXPECT_EQ(exec.state("fem")->status, ModuleStatus::Done) << exec.state("fem")->error;
+  const std::string e = exec.state("meg")->error;
+  EXPECT_NE(e.find("source_model subtraction (point field singular_potential)"), std::string::npos) << e;
+  for (const char* lf : {"ComputeLeadField", "ComputeMegLeadField"}) {
+    net.addModule(lf, std::string("x") + lf);
+    EXPECT_THROW(net.setParameterText(std::string("x") + lf, "source_model", "subtraction"), InputError) << lf;
+  }
+}
