@@ -117,7 +117,7 @@ void registerComputeLeadField(ModuleRegistry& r) {
                             "the output folder");
   out.isOutputPath = true;
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec(false)};
+  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec(true)};
   m.summaryKeys = {"electrodes", "sources", "solves", "iterations_max", "snap_distance_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeLeadField>(); };
   r.add(std::move(m));

@@ -11,6 +11,7 @@
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/FEM/SourceModels.h"
+#include "Algorithms/FEM/Subtraction.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Assembly.h"
 #include "BoundaryConditions.h"
@@ -78,7 +79,11 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   leadFieldSources(mesh, params.sourceLabels, params.sourcePoints, res.sources, res.sourceTets, progress);
   const size_t ns = res.sources.size();
   {
-    const double bytes = 8.0 * double(ne) * 3.0 * double(ns) + 100.0 * double(mesh.numTets());
+    // The subtraction model keeps every electrode's solution (vertices x electrodes) and, per thread,
+    // a source's three loads (vertices x 3).
+    const double perVertex = params.sourceModel == SourceModel::Subtraction ? 8.0 * double(ne) + 48.0 : 0.0;
+    const double bytes = 8.0 * double(ne) * 3.0 * double(ns) + 100.0 * double(mesh.numTets()) +
+                         perVertex * double(mesh.numPoints());
     requireMemory(bytes, "the lead field of " + std::to_string(ne) + " electrodes x " + std::to_string(ns) + " sources",
                   [&](double avail) {
                     const double fits = std::floor(std::max(0.0, avail - 100.0 * double(mesh.numTets())) / (24.0 * double(ne)));
@@ -159,7 +164,10 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   NullProgress quiet; // the solver's own fraction would hide the per-electrode one
   solver.setProgress(&quiet);
   Eigen::VectorXd x;
-  const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.sourceModel);
+  const bool subtraction = params.sourceModel == SourceModel::Subtraction;
+  const DipoleLoads loads = subtraction ? DipoleLoads{} : dipoleLoads(mesh, res.sources, res.sourceTets, params.sourceModel);
+  // Subtraction: every electrode's solution, for the sources' loads after the solves.
+  Eigen::MatrixXd solutions = subtraction ? Eigen::MatrixXd::Zero(Eigen::Index(np), Eigen::Index(ne)) : Eigen::MatrixXd();
   double mSeconds = 0;
   for (size_t e = 0; e < ne; ++e) {
     progress.checkCancel();
@@ -180,6 +188,12 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
     }
     const auto tm = std::chrono::steady_clock::now();
     const Eigen::VectorXd u = sys.expand(x);
+    if (subtraction) {
+      solutions.col(Eigen::Index(e)) = u;
+      mSeconds += secondsSince(tm);
+      progress.report(double(e + 1) / double(ne));
+      continue;
+    }
 #pragma omp parallel for schedule(static)
     for (int64_t s = 0; s < int64_t(ns); ++s)
       for (int k = 0; k < 3; ++k)
@@ -193,6 +207,27 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   // --- reference ---
   t0 = std::chrono::steady_clock::now();
   progress.beginStage("lead field");
+  if (subtraction) {
+    // V_e - V_g = u_inf(e) - u_inf(g) + w(e), and w(e) = u_e^T F m by reciprocity (w(g) = 0), F the
+    // source's unit loads (Subtraction.h). The loads are parallel inside, so sources go one by one.
+    const SubtractionSources sub(mesh, params.conductivities);
+    for (size_t s = 0; s < ns; ++s) {
+      progress.checkCancel();
+      const Eigen::MatrixX3d F = sub.unitLoads(res.sources[s]);
+      const double sigma = sub.sigmaAt(res.sources[s]);
+      Eigen::MatrixXd block = solutions.transpose() * F; // electrodes x 3
+      for (size_t e = 0; e < ne; ++e)
+        for (int k = 0; k < 3; ++k) {
+          Vec3 m{0, 0, 0};
+          m[size_t(k)] = 1.0;
+          block(Eigen::Index(e), k) +=
+              SubtractionSources::singularPotential(res.sources[s], m, sigma, mesh.points[size_t(res.vertex[e])]) -
+              SubtractionSources::singularPotential(res.sources[s], m, sigma, mesh.points[size_t(groundVertex)]);
+        }
+      res.matrix.block(0, Eigen::Index(3 * s), Eigen::Index(ne), 3) = block;
+      progress.report(double(s + 1) / double(ns));
+    }
+  }
   if (params.reference == "average") {
     const Eigen::RowVectorXd mean = res.matrix.colwise().mean();
     res.matrix.rowwise() -= mean;

@@ -91,7 +91,7 @@ std::vector<int32_t> VenantSources::add(const Vec3& position, const Vec3& moment
 DipoleLoads dipoleLoads(const TetMesh& mesh, const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets,
                         SourceModel model) {
   if (model == SourceModel::Subtraction)
-    throw InputError("source_model subtraction: lead fields take partial_integration or venant");
+    throw InputError("source_model subtraction: its load is not a few vertices' (ComputeLeadField handles it apart); the MEG lead field takes partial_integration or venant");
   const bool venant = model == SourceModel::Venant;
   DipoleLoads loads;
   loads.offset.push_back(0);

@@ -66,7 +66,8 @@ struct DipoleLoads {
     return sum;
   }
 };
-// InputError for the subtraction model, whose load is not a few vertices' (lead fields do not offer it).
+// InputError for the subtraction model, whose load is not a few vertices' (the EEG lead field builds
+// it per source, LeadField.cpp; the MEG lead field does not offer it).
 DipoleLoads dipoleLoads(const TetMesh& mesh, const std::vector<Vec3>& sources, const std::vector<int64_t>& sourceTets,
                         SourceModel model);
 

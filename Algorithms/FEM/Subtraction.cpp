@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <cmath>
+#include <map>
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
@@ -24,13 +25,12 @@ constexpr double kRule[7][4] = {{1.0 / 3, 1.0 / 3, 1.0 / 3, 0.225},
                                 {kA1, kB1, kB1, kW1}, {kB1, kA1, kB1, kW1}, {kB1, kB1, kA1, kW1},
                                 {kA2, kB2, kB2, kW2}, {kB2, kA2, kB2, kW2}, {kB2, kB2, kA2, kW2}};
 
-// grad u_inf at x (V/mm) for sigma_inf (S/m): (M / r^3 - 3 (M . r) r / r^5) / (4 pi sigma).
-Vec3 singularGradient(const Vec3& x0, const Vec3& M, double sigma, const Vec3& x) {
-  const Vec3 r = x - x0;
-  const double r2 = dot(r, r);
-  if (!(r2 > 1e-18)) return {0, 0, 0};
-  const double r1 = std::sqrt(r2), r3 = r2 * r1;
-  return (1.0 / (4 * kPi * sigma * r3)) * (M - (3 * dot(M, r) / r2) * r);
+// sum += w * value, for the integrands' types.
+void accumulate(Vec3& sum, double w, const Vec3& v) {
+  for (int k = 0; k < 3; ++k) sum[size_t(k)] += w * v[size_t(k)];
+}
+void accumulate(Mat3& sum, double w, const Mat3& v) {
+  for (int k = 0; k < 3; ++k) accumulate(sum[size_t(k)], w, v[size_t(k)]);
 }
 
 // Integrates g (a function of the point and its barycentric coordinates on the triangle (a, b,
@@ -60,7 +60,7 @@ void integrateTriangle(const Vec3& a, const Vec3& b, const Vec3& c, const std::a
     const std::array<double, 3> l{w[0] * la[0] + w[1] * lb[0] + w[2] * lc[0],
                                   w[0] * la[1] + w[1] * lb[1] + w[2] * lc[1],
                                   w[0] * la[2] + w[1] * lb[2] + w[2] * lc[2]};
-    sum = sum + (w[3] * area) * g(x, l);
+    accumulate(sum, w[3] * area, g(x, l));
   }
 }
 
@@ -83,6 +83,15 @@ SubtractionSources::SubtractionSources(const TetMesh& mesh, const ConductivityTa
       if (dot(n, mesh.points[size_t(q[size_t(f)])] - p0) > 0) std::swap(face[1], face[2]); // outward
       faces_.push_back(face);
     }
+  std::map<int32_t, double> area;
+  double total = 0;
+  for (const auto& face : faces_) {
+    const Vec3& p0 = mesh.points[size_t(face[0])];
+    const double a = 0.5 * norm(cross(mesh.points[size_t(face[1])] - p0, mesh.points[size_t(face[2])] - p0));
+    for (int32_t v : face) area[v] += a / 3;
+    total += a;
+  }
+  for (const auto& [v, a] : area) boundaryShare_.push_back({v, total > 0 ? a / total : 0.0});
 }
 
 double SubtractionSources::sigmaAt(const Vec3& x0) const {
@@ -118,39 +127,52 @@ std::vector<double> SubtractionSources::singularPotential(const Vec3& x0, const 
 void SubtractionSources::addLoad(const Vec3& x0, const Vec3& M, Eigen::VectorXd& b) const {
   const double m = norm(M);
   if (!(m > 0) || !std::isfinite(m)) throw InputError("dipole_moment: must be a non-zero finite vector (mA mm)");
+  b += unitLoads(x0) * Eigen::Vector3d(M[0], M[1], M[2]);
+}
+
+Eigen::MatrixX3d SubtractionSources::unitLoads(const Vec3& x0) const {
   const double sigma = sigmaAt(x0);
   const SymTensor6 sInf = isotropicTensor(sigma);
+  const Eigen::Index np = Eigen::Index(mesh_.numPoints());
   const int threads = omp_get_max_threads();
-  std::vector<Eigen::VectorXd> local(size_t(threads), Eigen::VectorXd::Zero(b.size()));
+  std::vector<Eigen::MatrixX3d> local(size_t(threads), Eigen::MatrixX3d::Zero(np, 3));
   const std::array<double, 3> e0{1, 0, 0}, e1{0, 1, 0}, e2{0, 0, 1};
+  // u_inf for the unit moments along x, y, z at once: (x - x0) / (4 pi sigma |x - x0|^3).
+  auto potentials = [&](const Vec3& x, const std::array<double, 3>&) {
+    const Vec3 r = x - x0;
+    const double r2 = dot(r, r);
+    if (!(r2 > 1e-18)) return Vec3{0, 0, 0};
+    return (1.0 / (4 * kPi * sigma * r2 * std::sqrt(r2))) * r;
+  };
   // Volume term: grad(phi_i) . (sigma_inf - sigma_T) int_T grad(u_inf), over the tets that differ.
 #pragma omp parallel for schedule(dynamic, 256)
   for (int64_t t = 0; t < int64_t(mesh_.numTets()); ++t) {
     const SymTensor6& s = sigma_[size_t(t)];
     if (s == sInf) continue;
     const auto& q = mesh_.tets[size_t(t)];
-    Vec3 flux{0, 0, 0}; // int_T grad u_inf = sum_F n_F int_F u_inf
+    Mat3 flux{}; // flux[k]: int_T grad u_inf for the unit moment k = sum_F n_F int_F u_inf
     for (int f = 0; f < 4; ++f) {
       const Vec3& a = mesh_.points[size_t(q[size_t(kTetFaceVertices[f][0])])];
-      Vec3 bb = mesh_.points[size_t(q[size_t(kTetFaceVertices[f][1])])];
-      Vec3 c = mesh_.points[size_t(q[size_t(kTetFaceVertices[f][2])])];
+      const Vec3& bb = mesh_.points[size_t(q[size_t(kTetFaceVertices[f][1])])];
+      const Vec3& c = mesh_.points[size_t(q[size_t(kTetFaceVertices[f][2])])];
       Vec3 n = cross(bb - a, c - a);
       if (dot(n, mesh_.points[size_t(q[size_t(f)])] - a) > 0) n = -1.0 * n;
       const double len = norm(n);
       if (!(len > 0)) continue;
-      double integral = 0;
-      integrateTriangle(a, bb, c, e0, e1, e2, 0.5 * len, x0, 0,
-                        [&](const Vec3& x, const std::array<double, 3>&) { return singularPotential(x0, M, sigma, x); },
-                        integral);
-      flux = flux + (integral / len) * n;
+      Vec3 integral{0, 0, 0};
+      integrateTriangle(a, bb, c, e0, e1, e2, 0.5 * len, x0, 0, potentials, integral);
+      for (int k = 0; k < 3; ++k) flux[size_t(k)] = flux[size_t(k)] + (integral[size_t(k)] / len) * n;
     }
     const Mat3 d = tensorMatrix({sigma - s[0], sigma - s[1], sigma - s[2], -s[3], -s[4], -s[5]});
-    const Vec3 j = mul(d, flux);
     const TetGradients g = tetGradients(mesh_, size_t(t));
-    Eigen::VectorXd& out = local[size_t(omp_get_thread_num())];
-    for (int a = 0; a < 4; ++a) out[q[size_t(a)]] += dot(g.grad[size_t(a)], j);
+    Eigen::MatrixX3d& out = local[size_t(omp_get_thread_num())];
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 j = mul(d, flux[size_t(k)]);
+      for (int a = 0; a < 4; ++a) out(q[size_t(a)], k) += dot(g.grad[size_t(a)], j);
+    }
   }
-  // Boundary term: -sigma_inf int_F (grad u_inf . n) phi_a.
+  // Boundary term: -sigma_inf int_F (grad u_inf . n) phi_a; grad u_inf . n for the unit moment k
+  // is (n_k - 3 (r . n) r_k / r^2) / (4 pi sigma r^3).
 #pragma omp parallel for schedule(dynamic, 256)
   for (int64_t f = 0; f < int64_t(faces_.size()); ++f) {
     const auto& face = faces_[size_t(f)];
@@ -159,17 +181,33 @@ void SubtractionSources::addLoad(const Vec3& x0, const Vec3& M, Eigen::VectorXd&
     const double len = norm(nn);
     if (!(len > 0)) continue;
     const Vec3 n = (1.0 / len) * nn;
-    Vec3 sum{0, 0, 0}; // per vertex of the face
+    Mat3 sum{}; // sum[k][a]
     integrateTriangle(a, bb, c, e0, e1, e2, 0.5 * len, x0, 0,
                       [&](const Vec3& x, const std::array<double, 3>& l) {
-                        const double g = dot(singularGradient(x0, M, sigma, x), n);
-                        return Vec3{g * l[0], g * l[1], g * l[2]};
+                        const Vec3 r = x - x0;
+                        const double r2 = dot(r, r);
+                        Mat3 v{};
+                        if (!(r2 > 1e-18)) return v;
+                        const double scale = 1.0 / (4 * kPi * sigma * r2 * std::sqrt(r2)), rn = 3 * dot(r, n) / r2;
+                        for (int k = 0; k < 3; ++k) {
+                          const double gk = scale * (n[size_t(k)] - rn * r[size_t(k)]);
+                          v[size_t(k)] = {gk * l[0], gk * l[1], gk * l[2]};
+                        }
+                        return v;
                       },
                       sum);
-    Eigen::VectorXd& out = local[size_t(omp_get_thread_num())];
-    for (int k = 0; k < 3; ++k) out[face[size_t(k)]] -= sigma * sum[size_t(k)];
+    Eigen::MatrixX3d& out = local[size_t(omp_get_thread_num())];
+    for (int k = 0; k < 3; ++k)
+      for (int v = 0; v < 3; ++v) out(face[size_t(v)], k) -= sigma * sum[size_t(k)][size_t(v)];
   }
-  for (const auto& l : local) b += l;
+  Eigen::MatrixX3d F = Eigen::MatrixX3d::Zero(np, 3);
+  for (const auto& l : local) F += l;
+  // The boundary flux of u_inf vanishes exactly, its quadrature to ~1e-6: the rest leaves through
+  // the boundary evenly (lumped by area), so that the load carries no net current and the
+  // solution does not depend on which vertex holds the reference.
+  const Eigen::RowVector3d net = F.colwise().sum();
+  for (const auto& [v, share] : boundaryShare_) F.row(v) -= share * net;
+  return F;
 }
 
 } // namespace tetflow

@@ -18,7 +18,10 @@
 // the layers outside the brain), so no integral comes near the singularity unless a layer does.
 // int_T grad(u_inf) is computed as the flux sum_faces n_F int_F u_inf (divergence theorem), and
 // every face integral by a degree-5 seven-point rule on triangles that are subdivided (up to 6
-// levels) until each is smaller than a quarter of its distance to x0.
+// levels) until each is smaller than a quarter of its distance to x0. The boundary term's sum (the
+// flux of grad u_inf out of the conductor, 0 exactly) is 0 to about 1e-6 of the load by quadrature;
+// that rest is taken out evenly over the boundary (by area), so that the load carries no net
+// current and the solution does not depend on the vertex that holds the reference.
 //
 // Compared with partial integration and Venant (SourceModels.h), nothing of the singularity is
 // left to the mesh: the error no longer depends on where the dipole sits among the vertices, and
@@ -44,6 +47,9 @@ public:
   double sigmaAt(const Vec3& x0) const;
   // Adds the correction's load f (mA, indexed by mesh vertex) of the dipole to b.
   void addLoad(const Vec3& x0, const Vec3& moment, Eigen::VectorXd& b) const;
+  // The loads of unit moments along x, y and z at x0 (columns; the load of M is F M, since u_inf
+  // is linear in M). For lead fields: u_e^T F is an electrode's row for this source.
+  Eigen::MatrixX3d unitLoads(const Vec3& x0) const;
   // u_inf at every mesh vertex (V); 0 at a vertex closer than 1e-9 mm to x0.
   std::vector<double> singularPotential(const Vec3& x0, const Vec3& moment) const;
   static double singularPotential(const Vec3& x0, const Vec3& moment, double sigmaInf, const Vec3& x);
@@ -52,6 +58,7 @@ private:
   const TetMesh& mesh_;
   std::vector<SymTensor6> sigma_;             // per tet
   std::vector<std::array<int32_t, 3>> faces_; // boundary faces, counter-clockwise seen from outside
+  std::vector<std::pair<int32_t, double>> boundaryShare_; // boundary vertex, its share of the area
 };
 
 } // namespace tetflow

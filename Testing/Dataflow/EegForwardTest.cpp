@@ -189,8 +189,11 @@ TEST(EegForward, VenantBeatsPartialIntegrationAtHighEccentricity) {
 
 // Reciprocity holds for the St. Venant source model too: ComputeLeadField with source_model venant
 // equals AssembleFEMPoisson's direct Venant solves at the electrodes.
-TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) {
-  test::TempDir dir;
+// Reciprocity for the other source models: the lead field of ComputeLeadField equals direct
+// AssembleFEMPoisson solves with the same model (Venant: the loads of unit moments; subtraction:
+// the singular potential's difference plus the correction's loads against each electrode's
+// solution).
+static void leadFieldEqualsDirectSolves(const char* model) {  test::TempDir dir;
   test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 12));
   const char* sources[] = {"0 0 5", "4 -3 2", "-6 2 -4"};
   test::writeBytes(dir.file("src.csv"), "x,y,z\n0,0,5\n4,-3,2\n-6,2,-4\n");
@@ -203,7 +206,7 @@ TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) {
   net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
   net.setParameterText("lf", "sources_file", dir.file("src.csv"));
   net.setParameterText("lf", "tolerance", "1e-12");
-  net.setParameterText("lf", "source_model", "venant");
+  net.setParameterText("lf", "source_model", model);
   net.setParameterText("lf", "filename", dir.file("lf.npy"));
   net.connect("cl", 0, "lf", 0);
   const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
@@ -212,11 +215,11 @@ TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) {
       const std::string id = dipoleId(s, k);
       addDipole(net, id, sources[s], axes[k]);
       net.setParameterText(id, "tolerance", "1e-12");
-      net.setParameterText(id, "source_model", "venant");
+      net.setParameterText(id, "source_model", model);
     }
   Executor exec;
   ASSERT_TRUE(exec.execute(net).success) << exec.state("lf")->error;
-  EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("source_model")), "venant");
+  EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("source_model")), model);
   const Eigen::MatrixXd& L = leadField(exec, "lf");
   const std::vector<int32_t> vertex = snappedVertices(dir.file("lf.npy.electrodes.csv"));
   ASSERT_EQ(vertex.size(), 12u);
@@ -232,8 +235,12 @@ TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) {
       largest = std::max(largest, direct.norm());
     }
   EXPECT_GT(largest, 0.0);
-  EXPECT_LT(worst, 1e-7) << "Venant lead field vs direct Venant solves, largest relative difference";
+  EXPECT_LT(worst, 1e-7) << model << " lead field vs direct solves, largest relative difference";
 }
+
+TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) { leadFieldEqualsDirectSolves("venant"); }
+
+TEST(EegForward, SubtractionLeadFieldEqualsDirectSubtractionSolves) { leadFieldEqualsDirectSolves("subtraction"); }
 
 TEST(EegForward, LeadFieldEqualsDirectDipoleSolves) {
   test::TempDir dir;
