@@ -82,7 +82,8 @@ case "${1:-}" in
       heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
       heavy+='|EegForward\.VenantBeatsPartialIntegrationAtHighEccentricity'
       heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation'
-      heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes)$' # Nets.bem_head runs its net here
+      heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes' # Nets.bem_head runs its net here
+      heavy+='|CadModulesFixture\.TheSmoothSphereNetMatchesTheAnalyticPotential)$' # Nets.eeg_sphere_cad runs it here
       exec ctest --output-on-failure -j "$JOBS" -E "$heavy" "$@"
     fi
     ;;
