@@ -22,9 +22,7 @@ public:
       throw InputError("electrodes_file: give the electrode positions (.csv/.tsv/.txt name,x,y,z in mm, .elc or .sfp)");
     p.electrodes = readElectrodes(ctx.getPath("electrodes_file"), ctx.getDouble("electrode_unit_scale"));
     p.reference = ctx.getString("reference");
-    p.sourceLabels = parseLabels(ctx.getList("source_labels"), "source_labels");
-    if (!ctx.getString("sources_file").empty())
-      for (const Electrode& e : readElectrodes(ctx.getPath("sources_file"), 0.0)) p.sourcePoints.push_back(e.position);
+    leadFieldSourcesFrom(ctx, p.sourceLabels, p.sourcePoints);
     p.solver = solverParamsFrom(ctx);
     p.sourceModel = sourceModelFrom(ctx);
 
@@ -107,17 +105,9 @@ void registerComputeLeadField(ModuleRegistry& r) {
   unit.min = 0.0;
   ParamSpec ref = makeParam("reference", ParamType::String, std::string("average"), "",
                             "average (subtract the mean over the electrodes) or an electrode name");
-  ParamSpec sl = makeParam("source_labels", ParamType::List, std::vector<std::string>{}, "",
-                           "sources at the centroids of every tet of these labels (e.g. 4 for the brain)");
-  ParamSpec sf = makeParam("sources_file", ParamType::String, std::string(), "",
-                           "or sources at these points: a .csv/.txt of x, y, z in mm (name optional)");
-  sf.isInputPath = true;
-  ParamSpec out = makeParam("filename", ParamType::String, std::string(), "",
-                            "output .npy or .csv (empty = port only); relative names resolve against "
-                            "the output folder");
-  out.isOutputPath = true;
+  const std::vector<ParamSpec> lf = leadFieldParamSpecs(); // source_labels, sources_file, filename
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cond, def, ef, unit, ref, sl, sf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec(true)};
+  m.params = {cond, def, ef, unit, ref, lf[0], lf[1], sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], lf[2], cp[2], sourceModelParamSpec(true)};
   m.summaryKeys = {"electrodes", "sources", "solves", "iterations_max", "snap_distance_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeLeadField>(); };
   r.add(std::move(m));

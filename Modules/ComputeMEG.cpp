@@ -28,9 +28,7 @@ public:
                        "(boundary_condition dipole, the same dipole as here)");
     MegParams p;
     p.conductivities = conductivitiesFrom(ctx, mesh, ctx.report());
-    if (ctx.getString("sensors_file").empty())
-      throw InputError("sensors_file: give the MEG sensors (lines 'name x y z nx ny nz [weight]' in mm)");
-    p.sensors = readMegSensors(ctx.getPath("sensors_file"), ctx.getDouble("sensor_unit_scale"));
+    p.sensors = megSensorsFrom(ctx);
     p.dipolePosition = parseVec3(ctx.getString("dipole_position"), "dipole_position");
     p.dipoleMoment = parseVec3(ctx.getString("dipole_moment"), "dipole_moment");
     const MegResult r = computeMeg(mesh, it->second.values, p, ctx.progress());
@@ -112,13 +110,7 @@ void registerComputeMEG(ModuleRegistry& r) {
   m.outputs = {{"field", {PortType::DenseMatrix}, "sensors x 3: total, primary and volume-current signal (fT)"},
                {"report", {PortType::Report}, "MEG figures (same as the module report)"}};
   const std::vector<ParamSpec> cp = conductivityParamSpecs();
-  ParamSpec sf = makeParam("sensors_file", ParamType::String, std::string(), "",
-                           "MEG sensors: one coil per line, 'name x y z nx ny nz [weight]' (mm); lines "
-                           "with the same name are one sensor's coils (Algorithms/FEM/Meg.h)");
-  sf.isInputPath = true;
-  ParamSpec unit = makeParam("sensor_unit_scale", ParamType::Double, 0.0, "",
-                             "multiplies the sensor positions to get mm (10 for cm, 1000 for m); 0 = mm");
-  unit.min = 0.0;
+  const std::vector<ParamSpec> ms = megSensorParamSpecs(); // sensors_file, sensor_unit_scale
   ParamSpec dpos = makeParam("dipole_position", ParamType::String, std::string("0 0 40"), "mm",
                              "the dipole of the FEM solve: position \"x y z\"");
   ParamSpec dmom = makeParam("dipole_moment", ParamType::String, std::string("0.01 0 0"), "mA mm",
@@ -131,7 +123,7 @@ void registerComputeMEG(ModuleRegistry& r) {
   ParamSpec out = makeParam("filename", ParamType::String, std::string(), "",
                             "optional .csv: sensor, total, primary, volume (and sarvas) in fT");
   out.isOutputPath = true;
-  m.params = {cp[0], cp[1], sf, unit, dpos, dmom, cmp, ctr, out, cp[2]};
+  m.params = {cp[0], cp[1], ms[0], ms[1], dpos, dmom, cmp, ctr, out, cp[2]};
   m.summaryKeys = {"sensors", "b_max_ft", "rdm", "mag"};
   m.factory = [] { return std::make_unique<ComputeMEG>(); };
   r.add(std::move(m));

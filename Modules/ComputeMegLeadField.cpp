@@ -18,12 +18,8 @@ public:
     const TetMesh& mesh = ctx.inputAs<TetMeshData>(0).value;
     MegLeadFieldParams p;
     p.conductivities = conductivitiesFrom(ctx, mesh, ctx.report());
-    if (ctx.getString("sensors_file").empty())
-      throw InputError("sensors_file: give the MEG sensors (lines 'name x y z nx ny nz [weight]' in mm)");
-    p.sensors = readMegSensors(ctx.getPath("sensors_file"), ctx.getDouble("sensor_unit_scale"));
-    p.sourceLabels = parseLabels(ctx.getList("source_labels"), "source_labels");
-    if (!ctx.getString("sources_file").empty())
-      for (const Electrode& e : readElectrodes(ctx.getPath("sources_file"), 0.0)) p.sourcePoints.push_back(e.position);
+    p.sensors = megSensorsFrom(ctx);
+    leadFieldSourcesFrom(ctx, p.sourceLabels, p.sourcePoints);
     p.solver = solverParamsFrom(ctx);
     p.sourceModel = sourceModelFrom(ctx);
 
@@ -83,24 +79,10 @@ void registerComputeMegLeadField(ModuleRegistry& r) {
   m.outputs = {{"lead field", {PortType::DenseMatrix}, "sensors x (3 sources): column 3 s + k = unit dipole along axis k at source s (fT per mA mm)"},
                {"report", {PortType::Report}, "lead field figures (same as the module report)"}};
   const std::vector<ParamSpec> cp = conductivityParamSpecs();
-  ParamSpec sf = makeParam("sensors_file", ParamType::String, std::string(), "",
-                           "MEG sensors: one coil per line, 'name x y z nx ny nz [weight]' (mm); lines "
-                           "with the same name are one sensor's coils (Algorithms/FEM/Meg.h)");
-  sf.isInputPath = true;
-  ParamSpec unit = makeParam("sensor_unit_scale", ParamType::Double, 0.0, "",
-                             "multiplies the sensor positions to get mm (10 for cm, 1000 for m); 0 = mm");
-  unit.min = 0.0;
-  ParamSpec sl = makeParam("source_labels", ParamType::List, std::vector<std::string>{}, "",
-                           "sources at the centroids of every tet of these labels (e.g. 4 for the brain)");
-  ParamSpec srcf = makeParam("sources_file", ParamType::String, std::string(), "",
-                             "or sources at these points: a .csv/.txt of x, y, z in mm (name optional)");
-  srcf.isInputPath = true;
-  ParamSpec out = makeParam("filename", ParamType::String, std::string(), "",
-                            "output .npy or .csv (empty = port only); relative names resolve against "
-                            "the output folder");
-  out.isOutputPath = true;
+  const std::vector<ParamSpec> ms = megSensorParamSpecs(); // sensors_file, sensor_unit_scale
+  const std::vector<ParamSpec> lf = leadFieldParamSpecs();  // source_labels, sources_file, filename
   const std::vector<ParamSpec> sp = solverParamSpecs();
-  m.params = {cp[0], cp[1], sf, unit, sl, srcf, sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], out, cp[2], sourceModelParamSpec(false)};
+  m.params = {cp[0], cp[1], ms[0], ms[1], lf[0], lf[1], sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], lf[2], cp[2], sourceModelParamSpec(false)};
   m.summaryKeys = {"sensors", "sources", "solves", "iterations_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeMegLeadField>(); };
   r.add(std::move(m));

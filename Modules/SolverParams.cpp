@@ -1,5 +1,7 @@
 // The solver parameters shared by AssembleFEMPoisson and ComputeLeadField (StandardModules.h).
 #include "Algorithms/FEM/IterativeSolver.h"
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/IO/ElectrodeIO.h"
 #include "StandardModules.h"
 
 namespace tetflow {
@@ -55,5 +57,42 @@ ParamSpec sourceModelParamSpec(bool withSubtraction) {
 }
 
 SourceModel sourceModelFrom(const ExecutionContext& ctx) { return sourceModelFromName(ctx.getString("source_model")); }
+
+std::vector<ParamSpec> leadFieldParamSpecs() {
+  ParamSpec sl = makeParam("source_labels", ParamType::List, std::vector<std::string>{}, "",
+                           "sources at the centroids of every tet of these labels (e.g. 4 for the brain)");
+  ParamSpec sf = makeParam("sources_file", ParamType::String, std::string(), "",
+                           "or sources at these points: a .csv/.txt of x, y, z in mm (name optional)");
+  sf.isInputPath = true;
+  ParamSpec out = makeParam("filename", ParamType::String, std::string(), "",
+                            "output .npy or .csv (empty = port only); relative names resolve against "
+                            "the output folder");
+  out.isOutputPath = true;
+  return {sl, sf, out};
+}
+
+void leadFieldSourcesFrom(const ExecutionContext& ctx, std::vector<int32_t>& labels, std::vector<Vec3>& points) {
+  labels = parseLabels(ctx.getList("source_labels"), "source_labels");
+  points.clear();
+  if (!ctx.getString("sources_file").empty())
+    for (const Electrode& e : readElectrodes(ctx.getPath("sources_file"), 0.0)) points.push_back(e.position);
+}
+
+std::vector<ParamSpec> megSensorParamSpecs() {
+  ParamSpec sf = makeParam("sensors_file", ParamType::String, std::string(), "",
+                           "MEG sensors: one coil per line, 'name x y z nx ny nz [weight]' (mm); lines "
+                           "with the same name are one sensor's coils (Algorithms/FEM/Meg.h)");
+  sf.isInputPath = true;
+  ParamSpec unit = makeParam("sensor_unit_scale", ParamType::Double, 0.0, "",
+                             "multiplies the sensor positions to get mm (10 for cm, 1000 for m); 0 = mm");
+  unit.min = 0.0;
+  return {sf, unit};
+}
+
+std::vector<MegSensor> megSensorsFrom(const ExecutionContext& ctx) {
+  if (ctx.getString("sensors_file").empty())
+    throw InputError("sensors_file: give the MEG sensors (lines 'name x y z nx ny nz [weight]' in mm)");
+  return readMegSensors(ctx.getPath("sensors_file"), ctx.getDouble("sensor_unit_scale"));
+}
 
 } // namespace tetflow

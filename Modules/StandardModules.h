@@ -3,6 +3,7 @@
 // once to fill a registry.
 #include "Algorithms/FEM/Conductivity.h"
 #include "Algorithms/FEM/IterativeSolver.h"
+#include "Algorithms/FEM/Meg.h"
 #include "Algorithms/FEM/SourceModels.h"
 #include "Algorithms/MeshImprovement/MeshImprovement.h"
 #include "Dataflow/ModuleRegistry.h"
@@ -55,11 +56,20 @@ std::vector<ParamSpec> conductivityParamSpecs();
 // added to `report`.
 ConductivityTable conductivitiesFrom(const ExecutionContext& ctx, const TetMesh& mesh, Report& report);
 SolverParams solverParamsFrom(const ExecutionContext& ctx);
-// `source_model` (partial_integration | venant): how a dipole becomes a load (FEM/SourceModels.h),
-// shared by AssembleFEMPoisson and the lead fields; true for venant.
-// The source_model parameter (SourceModels.h); subtraction only where it is offered.
+// `source_model` (partial_integration | venant | subtraction): how a dipole becomes a load
+// (FEM/SourceModels.h), shared by AssembleFEMPoisson and the lead fields; subtraction only where
+// it is offered.
 ParamSpec sourceModelParamSpec(bool withSubtraction);
 SourceModel sourceModelFrom(const ExecutionContext& ctx);
+// The lead fields' sources and matrix file (ComputeLeadField, ComputeMegLeadField):
+// source_labels, sources_file, filename (.npy/.csv).
+std::vector<ParamSpec> leadFieldParamSpecs();
+// The sources those give: labels and points (FEM/LeadField.h leadFieldSources checks them).
+void leadFieldSourcesFrom(const ExecutionContext& ctx, std::vector<int32_t>& labels, std::vector<Vec3>& points);
+// The MEG sensors (ComputeMEG, ComputeMegLeadField): sensors_file, sensor_unit_scale; and the
+// sensors they give (InputError for an empty sensors_file).
+std::vector<ParamSpec> megSensorParamSpecs();
+std::vector<MegSensor> megSensorsFrom(const ExecutionContext& ctx);
 
 // Shared helper: the Report figures of a label volume (dims, spacing, origin, labels, counts).
 void reportLabelVolume(Report& report, const LabelVolume& v);

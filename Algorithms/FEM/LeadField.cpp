@@ -175,17 +175,7 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
     Eigen::VectorXd b = Eigen::VectorXd::Zero(res.dofs);
     b[sys.reducedIndex[size_t(res.vertex[e])]] = 1.0; // 1 mA in at e, out at the ground
     solver.solve(b, x);
-    ++res.solves;
-    res.iterationsTotal += solver.iterations();
-    res.iterationsMax = std::max(res.iterationsMax, solver.iterations());
-    res.ranks = solver.ranks();
-    if (!solver.converged()) {
-      res.converged = false;
-      std::ostringstream m;
-      m << "the solve for electrode " << res.names[e] << " did not converge (" << solverStatusName(solver.status())
-        << ", relative residual " << solver.relativeResidual() << ")";
-      res.notes.push_back(m.str());
-    }
+    countTransferSolve(res, solver, "electrode " + res.names[e]);
     const auto tm = std::chrono::steady_clock::now();
     const Eigen::VectorXd u = sys.expand(x);
     if (subtraction) {

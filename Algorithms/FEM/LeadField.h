@@ -26,6 +26,8 @@
 // many sources would fit). A solve that does not converge is noted (and `converged` false).
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -64,6 +66,23 @@ struct LeadFieldResult {
   double assembleSeconds = 0, solveSeconds = 0, matrixSeconds = 0;
   std::vector<std::string> notes;
 };
+
+// Counts one transfer-matrix solve of a lead field (EEG or MEG result: solves, iterations, ranks)
+// and notes it, naming `what` (e.g. "electrode Fz"), when it did not converge.
+template <class Result>
+void countTransferSolve(Result& res, const IterativeSolver& solver, const std::string& what) {
+  ++res.solves;
+  res.iterationsTotal += solver.iterations();
+  res.iterationsMax = std::max<int64_t>(res.iterationsMax, solver.iterations());
+  res.ranks = solver.ranks();
+  if (!solver.converged()) {
+    res.converged = false;
+    std::ostringstream m;
+    m << "the solve for " << what << " did not converge (" << solverStatusName(solver.status())
+      << ", relative residual " << solver.relativeResidual() << ")";
+    res.notes.push_back(m.str());
+  }
+}
 
 // The sources of a lead field (also used by Meg.h): the centroids of every tet whose label is in
 // `labels`, in tet order, or `points`, each located in its tet. InputError for both or neither, a

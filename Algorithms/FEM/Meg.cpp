@@ -436,17 +436,7 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
     const auto ts = std::chrono::steady_clock::now();
     solver.solve(b, x);
     sSeconds += secondsSince(ts);
-    ++res.solves;
-    res.iterationsTotal += solver.iterations();
-    res.iterationsMax = std::max(res.iterationsMax, solver.iterations());
-    res.ranks = solver.ranks();
-    if (!solver.converged()) {
-      res.converged = false;
-      std::ostringstream m;
-      m << "the solve for sensor " << sensor.name << " did not converge (" << solverStatusName(solver.status())
-        << ", relative residual " << solver.relativeResidual() << ")";
-      res.notes.push_back(m.str());
-    }
+    countTransferSolve(res, solver, "sensor " + sensor.name);
     const auto tm = std::chrono::steady_clock::now();
     const Eigen::VectorXd u = sys.expand(x);
 #pragma omp parallel for schedule(static)

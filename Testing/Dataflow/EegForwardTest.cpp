@@ -16,6 +16,7 @@
 #include "Dataflow/Executor.h"
 #include "Dataflow/NetworkFile.h"
 #include "Modules/StandardModules.h"
+#include "Fixtures/PhantomNet.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -25,26 +26,7 @@ const char* kSigma = "1:0.33; 2:0.0042; 3:1.79; 4:0.33";
 
 // Head phantom (scalp 1, skull 2, CSF 3, brain 4) -> regular BCC lattice -> CleaveMesh.
 void addHead(Network& net, const std::string& radii, double voxel, double cell) {
-  std::istringstream s(radii);
-  std::string r[4];
-  s >> r[0] >> r[1] >> r[2] >> r[3]; // scalp skull csf brain
-  net.addModule("CreatePhantom", "p");
-  net.setParameterText("p", "kind", "head");
-  net.setParameterText("p", "voxel_size", std::to_string(voxel));
-  net.setParameterText("p", "radius", r[0]);
-  net.setParameterText("p", "skull_radius", r[1]);
-  net.setParameterText("p", "csf_radius", r[2]);
-  net.setParameterText("p", "brain_radius", r[3]);
-  net.addModule("GenerateBackgroundMesh", "bg");
-  net.setParameterText("bg", "cell_size", std::to_string(cell));
-  // The lattices these figures were measured on (refining the thin CSF and skull would change,
-  // and slow, every solve here; the issue on forward accuracy measures that).
-  net.setParameterText("bg", "refine_thin_layers", "none");
-  net.addModule("CleaveMesh", "cl");
-  net.setParameterText("cl", "strip_exterior", "0");
-  net.connect("p", 0, "bg", 0);
-  net.connect("p", 0, "cl", 0);
-  net.connect("bg", 0, "cl", 1);
+  test::addHeadPipeline(net, radii, voxel, cell);
 }
 
 void addDipole(Network& net, const std::string& id, const std::string& pos, const std::string& moment) {

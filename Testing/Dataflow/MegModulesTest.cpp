@@ -10,6 +10,7 @@
 #include "Algorithms/IO/FileUtil.h"
 #include "Dataflow/Executor.h"
 #include "Modules/StandardModules.h"
+#include "Fixtures/PhantomNet.h"
 #include "TestUtil.h"
 
 using namespace tetflow;
@@ -18,23 +19,7 @@ namespace {
 const char* kSigma = "1:0.33; 2:0.0042; 3:1.79; 4:0.33";
 
 // Small head phantom (radii 20/17/14/12 mm, 1 mm voxels, 3 mm lattice).
-void addSmallHead(Network& net) {
-  net.addModule("CreatePhantom", "p");
-  net.setParameterText("p", "kind", "head");
-  net.setParameterText("p", "voxel_size", "1");
-  net.setParameterText("p", "radius", "20");
-  net.setParameterText("p", "skull_radius", "17");
-  net.setParameterText("p", "csf_radius", "14");
-  net.setParameterText("p", "brain_radius", "12");
-  net.addModule("GenerateBackgroundMesh", "bg");
-  net.setParameterText("bg", "cell_size", "3");
-  net.setParameterText("bg", "refine_thin_layers", "none");
-  net.addModule("CleaveMesh", "cl");
-  net.setParameterText("cl", "strip_exterior", "0");
-  net.connect("p", 0, "bg", 0);
-  net.connect("p", 0, "cl", 0);
-  net.connect("bg", 0, "cl", 1);
-}
+void addSmallHead(Network& net) { test::addHeadPipeline(net, "20 17 14 12", 1.0, 3.0); }
 
 // Sensors 6 mm outside the small head: radial and tangential magnetometers, one gradiometer.
 std::string sensorCsv() {
@@ -53,45 +38,59 @@ std::string sensorCsv() {
 const Eigen::MatrixXd& matrixOut(Executor& exec, const std::string& id) {
   return *dynamic_cast<const DenseMatrixData&>(*exec.state(id)->outputs.at(0)).value;
 }
-} // namespace
-
-TEST(MegModules, LeadFieldEqualsDirectSolvesAndComputeMEG) {
-  test::TempDir dir;
+// The small head with sensorCsv() (sensors.txt in dir), ComputeMegLeadField "lf" of `sources`
+// (written to src.csv in dir) on it, and for each
+// source s and axis k the direct solve "d<s><k>" (AssembleFEMPoisson) with ComputeMEG "b<s><k>",
+// all with source model `model` and a 1e-12 tolerance.
+void addLeadFieldAndDirectSolves(Network& net, const test::TempDir& dir, const std::vector<Vec3>& sources,
+                                 const char* model) {
+  std::ostringstream csv;
+  csv << "x,y,z\n";
+  for (const Vec3& x : sources) csv << x[0] << "," << x[1] << "," << x[2] << "\n";
+  test::writeBytes(dir.file("src.csv"), csv.str());
   test::writeBytes(dir.file("sensors.txt"), sensorCsv());
-  test::writeBytes(dir.file("src.csv"), "x,y,z\n0,0,5\n4,-3,2\n-6,2,-4\n");
-  const char* sources[] = {"0 0 5", "4 -3 2", "-6 2 -4"};
-  ModuleRegistry reg;
-  registerStandardModules(reg);
-  Network net(reg);
   addSmallHead(net);
   net.addModule("ComputeMegLeadField", "lf");
   net.setParameterText("lf", "conductivities", kSigma);
   net.setParameterText("lf", "sensors_file", dir.file("sensors.txt"));
   net.setParameterText("lf", "sources_file", dir.file("src.csv"));
   net.setParameterText("lf", "tolerance", "1e-12");
-  net.setParameterText("lf", "filename", dir.file("lf.npy"));
+  net.setParameterText("lf", "source_model", model);
   net.connect("cl", 0, "lf", 0);
   const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
-  for (int s = 0; s < 3; ++s)
+  for (size_t s = 0; s < sources.size(); ++s)
     for (int k = 0; k < 3; ++k) {
-      char id[8], mid[8];
-      std::snprintf(id, sizeof id, "d%d%d", s, k);
-      std::snprintf(mid, sizeof mid, "b%d%d", s, k);
+      std::ostringstream at, fem, meg;
+      at << sources[s][0] << " " << sources[s][1] << " " << sources[s][2];
+      fem << 'd' << s << k;
+      meg << 'b' << s << k;
+      const std::string pos = at.str(), id = fem.str(), mid = meg.str();
       net.addModule("AssembleFEMPoisson", id);
       net.setParameterText(id, "conductivities", kSigma);
       net.setParameterText(id, "boundary_condition", "dipole");
-      net.setParameterText(id, "dipole_position", sources[s]);
+      net.setParameterText(id, "dipole_position", pos);
       net.setParameterText(id, "dipole_moment", axes[k]);
       net.setParameterText(id, "tolerance", "1e-12");
       net.setParameterText(id, "condition_numbers", "false");
+      net.setParameterText(id, "source_model", model);
       net.connect("cl", 0, id, 0);
       net.addModule("ComputeMEG", mid);
       net.setParameterText(mid, "conductivities", kSigma);
       net.setParameterText(mid, "sensors_file", dir.file("sensors.txt"));
-      net.setParameterText(mid, "dipole_position", sources[s]);
+      net.setParameterText(mid, "dipole_position", pos);
       net.setParameterText(mid, "dipole_moment", axes[k]);
       net.connect(id, 0, mid, 0);
     }
+}
+} // namespace
+
+TEST(MegModules, LeadFieldEqualsDirectSolvesAndComputeMEG) {
+  test::TempDir dir;
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addLeadFieldAndDirectSolves(net, dir, {{0, 0, 5}, {4, -3, 2}, {-6, 2, -4}}, "partial_integration");
+  net.setParameterText("lf", "filename", dir.file("lf.npy"));
   Executor exec;
   const auto sum = exec.execute(net);
   ASSERT_TRUE(sum.success) << exec.state("lf")->error << exec.state("b00")->error;
@@ -134,42 +133,10 @@ TEST(MegModules, LeadFieldEqualsDirectSolvesAndComputeMEG) {
 // The MEG lead field with source_model venant equals ComputeMEG on direct Venant solves.
 TEST(MegModules, VenantLeadFieldEqualsDirectVenantSolves) {
   test::TempDir dir;
-  test::writeBytes(dir.file("sensors.txt"), sensorCsv());
-  test::writeBytes(dir.file("src.csv"), "x,y,z\n4,-3,2\n-6,2,-4\n");
-  const char* sources[] = {"4 -3 2", "-6 2 -4"};
   ModuleRegistry reg;
   registerStandardModules(reg);
   Network net(reg);
-  addSmallHead(net);
-  net.addModule("ComputeMegLeadField", "lf");
-  net.setParameterText("lf", "conductivities", kSigma);
-  net.setParameterText("lf", "sensors_file", dir.file("sensors.txt"));
-  net.setParameterText("lf", "sources_file", dir.file("src.csv"));
-  net.setParameterText("lf", "tolerance", "1e-12");
-  net.setParameterText("lf", "source_model", "venant");
-  net.connect("cl", 0, "lf", 0);
-  const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
-  for (int s = 0; s < 2; ++s)
-    for (int k = 0; k < 3; ++k) {
-      char id[8], mid[8];
-      std::snprintf(id, sizeof id, "d%d%d", s, k);
-      std::snprintf(mid, sizeof mid, "b%d%d", s, k);
-      net.addModule("AssembleFEMPoisson", id);
-      net.setParameterText(id, "conductivities", kSigma);
-      net.setParameterText(id, "boundary_condition", "dipole");
-      net.setParameterText(id, "dipole_position", sources[s]);
-      net.setParameterText(id, "dipole_moment", axes[k]);
-      net.setParameterText(id, "tolerance", "1e-12");
-      net.setParameterText(id, "condition_numbers", "false");
-      net.setParameterText(id, "source_model", "venant");
-      net.connect("cl", 0, id, 0);
-      net.addModule("ComputeMEG", mid);
-      net.setParameterText(mid, "conductivities", kSigma);
-      net.setParameterText(mid, "sensors_file", dir.file("sensors.txt"));
-      net.setParameterText(mid, "dipole_position", sources[s]);
-      net.setParameterText(mid, "dipole_moment", axes[k]);
-      net.connect(id, 0, mid, 0);
-    }
+  addLeadFieldAndDirectSolves(net, dir, {{4, -3, 2}, {-6, 2, -4}}, "venant");
   Executor exec;
   ASSERT_TRUE(exec.execute(net).success) << exec.state("lf")->error;
   const Eigen::MatrixXd& L = matrixOut(exec, "lf");
