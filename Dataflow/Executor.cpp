@@ -31,24 +31,59 @@ const char* moduleStatusName(ModuleStatus s) {
 
 namespace {
 
-// Progress sink of one running module: forwards to the observer.
+int64_t steadyNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Progress sink of one running module: forwards to the observer, throttled (ExecutionObserver).
+// report() may come from many worker threads at any rate; the observer sees the stage's highest
+// fraction so far at most once per kReportIntervalNs, so a chatty loop costs one clock read and
+// a few relaxed atomics per call, and the observer's own work (a lock, a line of JSON) stays
+// a few events per second.
 class ModuleProgress : public Progress {
 public:
+  static constexpr int64_t kReportIntervalNs = 100'000'000; // 0.1 s
   ModuleProgress(std::string id, const ExecutionObserver& obs) : id_(std::move(id)), obs_(obs) {}
   std::string stage;
 
 protected:
   void onStage(const std::string& name) override {
     stage = name;
+    best_.store(0.0, std::memory_order_relaxed);
+    sent_.store(0.0, std::memory_order_relaxed);
+    next_.store(steadyNowNs() + kReportIntervalNs, std::memory_order_relaxed);
     if (obs_.onProgress) obs_.onProgress(id_, name, 0.0);
   }
   void onReport(double f) override {
-    if (obs_.onProgress) obs_.onProgress(id_, stage, f);
+    if (!obs_.onProgress) return;
+    calls_.fetch_add(1, std::memory_order_relaxed);
+    if (!(f > 0.0)) return; // also drops NaN
+    f = std::min(f, 1.0);
+    double b = best_.load(std::memory_order_relaxed);
+    while (f > b && !best_.compare_exchange_weak(b, f, std::memory_order_relaxed)) {}
+    const int64_t now = steadyNowNs();
+    int64_t next = next_.load(std::memory_order_relaxed);
+    if (now < next || !next_.compare_exchange_strong(next, now + kReportIntervalNs)) return;
+    const double best = best_.load(std::memory_order_relaxed);
+    if (best <= sent_.load(std::memory_order_relaxed)) return; // nothing new to say
+    sent_.store(best, std::memory_order_relaxed);
+    obs_.onProgress(id_, stage, best);
+  }
+  void onStageEnd(const std::string& name, double) override {
+    if (obs_.onProgress && sent_.load(std::memory_order_relaxed) < 1.0) obs_.onProgress(id_, name, 1.0);
+    sent_.store(1.0, std::memory_order_relaxed);
   }
 
 private:
   std::string id_;
   const ExecutionObserver& obs_;
+  std::atomic<double> best_{0.0}, sent_{0.0}; // the stage's highest fraction reported / forwarded
+  std::atomic<int64_t> next_{0};             // steady ns before which reports are not forwarded
+  std::atomic<int64_t> calls_{0};            // report() calls
+
+public:
+  int64_t reportCalls() const { return calls_.load(); }
 };
 
 // Parameters as text, plus size and time of input files: what a result depends on besides data.
@@ -337,6 +372,7 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       s.report = ctx.report();
       s.messages = ctx.messages();
       s.stages = progress.stageTimes();
+      s.progressReports = progress.reportCalls();
       if (final == ModuleStatus::Done) {
         s.outputs = ctx.outputs();
         s.valid = true;

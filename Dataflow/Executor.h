@@ -48,14 +48,22 @@ struct ModuleState {
   bool passedOn = false;
   double seconds = 0.0;
   double progress = 0.0;
+  int64_t progressReports = 0; // report() calls the module made while observed (progress_benchmark)
   // What the last successful run used (re-execution decisions).
   bool valid = false;
   std::string signature;
   std::vector<uint64_t> inputIds;
 };
 
+// Callbacks of one execute(); they run on the executor's threads (and, for onProgress, on a
+// module's worker threads), so they must be thread-safe and quick.
 struct ExecutionObserver {
+  // Every status change: Waiting, Running, then Done / Error / Cancelled (or Done at once for a
+  // reused result, Skipped for a module behind a failure).
   std::function<void(const std::string& id, ModuleStatus status)> onStatus;
+  // Within a running module: fraction 0 when a stage begins; then, while the stage reports, its
+  // highest fraction so far, at most once per 0.1 s and only when it grew; 1 when the stage
+  // ends. So within a stage the fractions never decrease, and every stage ends at 1.
   std::function<void(const std::string& id, const std::string& stage, double fraction)> onProgress;
 };
 

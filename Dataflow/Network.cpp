@@ -305,11 +305,8 @@ std::vector<std::string> Network::topologicalOrder() const {
   return order;
 }
 
-std::vector<std::string> Network::fileConflicts() const {
+std::vector<Network::FileUse> Network::fileUses() const {
   namespace fs = std::filesystem;
-  struct Use {
-    std::string module, param, shown;
-  };
   auto resolve = [&](const std::string& p, bool output) {
     fs::path q(p);
     const std::string& base = output && !outputDir_.empty() ? outputDir_ : baseDir_;
@@ -318,7 +315,7 @@ std::vector<std::string> Network::fileConflicts() const {
     const fs::path c = fs::weakly_canonical(q, ec);
     return (ec ? q.lexically_normal() : c).string();
   };
-  std::map<std::string, std::vector<Use>> reads, writes;
+  std::vector<FileUse> uses;
   for (const auto& m : modules_)
     for (const auto& spec : m.info->params) {
       if (!spec.isInputPath && !spec.isOutputPath) continue;
@@ -327,12 +324,18 @@ std::vector<std::string> Network::fileConflicts() const {
       std::vector<std::string> names;
       if (const auto* s = std::get_if<std::string>(&it->second)) names.push_back(*s);
       else if (const auto* l = std::get_if<std::vector<std::string>>(&it->second)) names = *l;
-      for (const auto& n : names) {
-        if (n.empty()) continue;
-        auto& into = spec.isOutputPath ? writes : reads;
-        into[resolve(n, spec.isOutputPath)].push_back({m.id, spec.name, n});
-      }
+      for (const auto& n : names)
+        if (!n.empty()) uses.push_back({m.id, spec.name, n, resolve(n, spec.isOutputPath), spec.isOutputPath});
     }
+  return uses;
+}
+
+std::vector<std::string> Network::fileConflicts() const {
+  struct Use {
+    std::string module, param, shown;
+  };
+  std::map<std::string, std::vector<Use>> reads, writes;
+  for (const FileUse& u : fileUses()) (u.output ? writes : reads)[u.resolved].push_back({u.module, u.param, u.shown});
   std::vector<std::string> out;
   for (const auto& [file, ws] : writes) {
     if (const auto r = reads.find(file); r != reads.end())

@@ -107,6 +107,13 @@ public:
   // naming one file. One message per conflict, naming both modules and parameters and the file;
   // empty when there is none. Paths resolve as the modules resolve them (baseDir, outputDir).
   std::vector<std::string> fileConflicts() const;
+  // Every file a parameter names: module, parameter, the name as written, the path it resolves to
+  // (weakly canonical), and whether the module writes it.
+  struct FileUse {
+    std::string module, param, shown, resolved;
+    bool output = false;
+  };
+  std::vector<FileUse> fileUses() const;
 
 private:
   ModuleNode* findModule(const std::string& id);

@@ -1,6 +1,7 @@
 // tetflow: the headless runner (no Qt). See README "Headless runner" and DESIGN §5.
 //
 //   tetflow run NET.srn [--set m3.param=value]... [--report out.json] [--threads N] [--max-memory SIZE] [--quiet]
+//                       [--progress auto|none|jsonl] [--progress-file FILE]
 //   tetflow -E NET.srn ...          (SCIRun's spelling of `run`)
 //   tetflow validate NET.srn [--set ...]
 //   tetflow list-modules
@@ -10,8 +11,12 @@
 //
 // Exit status: 0 all modules succeeded; 1 a module failed (downstream ones skipped); 2 bad
 // command-line arguments; 3 the network file cannot be loaded or a --set is invalid for it;
-// 4 the --report file cannot be written; 130 cancelled by Ctrl-C, 143 by SIGTERM.
+// 4 the --report or --progress-file file cannot be written; 130 cancelled by Ctrl-C, 143 by SIGTERM.
 #include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <memory>
+#include <unistd.h>
 #include <chrono>
 #include <csignal>
 #include <optional>
@@ -31,7 +36,9 @@
 #include "Dataflow/NetworkFile.h"
 #include "Dataflow/RunReport.h"
 #include "Modules/StandardModules.h"
+#include "Dataflow/RunProgress.h"
 #include "Interface/HugePages.h"
+#include "Interface/TerminalProgress.h"
 
 using namespace tetflow;
 
@@ -72,7 +79,11 @@ const char* kUsage =
     "  --max-memory SIZE      memory budget, e.g. 8G or 512M (default: the machine's available\n"
     "                         memory); a module whose estimate exceeds it is refused before it\n"
     "                         allocates, naming the parameter and a value that fits\n"
-    "  --quiet                print only errors\n"
+    "  --quiet                print only errors (and no live progress lines)\n"
+    "  --progress MODE        auto: on a terminal, a live line per running module (stage, percent,\n"
+    "                         elapsed time) until its summary line replaces it; none: no live lines;\n"
+    "                         jsonl: one JSON object per progress event on stderr instead\n"
+    "  --progress-file FILE   write the JSON progress events to FILE as they happen\n"
     "options for certify (also --report, --threads, --max-memory, --quiet):\n"
     "  --max-volume-error PCT fail when a label's |volume error| exceeds PCT percent\n"
     "  --require-components   fail on a lost, split, merged or spurious component\n"
@@ -80,7 +91,7 @@ const char* kUsage =
     "  --strict               all three (volume error 3 % unless given)\n"
     "  --output MESH          write the mesh with the certificate_flags cell field\n"
     "exit status: 0 success, 1 module failed, 2 bad arguments, 3 network cannot be loaded,\n"
-    "             4 report cannot be written, 130 cancelled (Ctrl-C), 143 terminated (SIGTERM)\n";
+    "             4 report or progress file cannot be written, 130 cancelled (Ctrl-C), 143 terminated (SIGTERM)\n";
 
 int usageError(const std::string& msg) {
   std::cerr << "tetflow: " << msg << "\n" << kUsage;
@@ -94,6 +105,8 @@ struct RunArgs {
   std::string outputDir;
   int threads = 0;
   bool quiet = false;
+  std::string progress = "auto"; // auto, none, jsonl
+  std::string progressFile;
 };
 
 // --max-memory SIZE: sets the process's memory budget; returns an error message or "".
@@ -129,6 +142,11 @@ std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArg
       } else if (allowRunOptions && s == "--max-memory") {
         if (auto err = applyMaxMemory(value(s)); !err.empty()) return err;
       } else if (allowRunOptions && s == "--quiet") r.quiet = true;
+      else if (allowRunOptions && s == "--progress") {
+        r.progress = value(s);
+        if (r.progress != "auto" && r.progress != "none" && r.progress != "jsonl")
+          return "--progress '" + r.progress + "' must be auto, none or jsonl";
+      } else if (allowRunOptions && s == "--progress-file") r.progressFile = value(s);
       else if (!s.empty() && s[0] == '-') return "unknown option '" + s + "'";
       else if (r.net.empty()) r.net = s;
       else return "unexpected argument '" + s + "' (one network file at a time)";
@@ -180,6 +198,25 @@ bool reportFileConflicts(const Network& net, const std::string& path) {
   return !conflicts.empty();
 }
 
+// A file the runner itself writes (--report, --progress-file) must not be the network file or a
+// file one of its modules reads or writes: returns the message naming the clash, or "".
+std::string runnerFileClash(const Network& net, const std::string& netPath, const std::string& opt,
+                            const std::string& file) {
+  namespace fs = std::filesystem;
+  auto canon = [](const std::string& p) {
+    std::error_code ec;
+    const fs::path c = fs::weakly_canonical(fs::absolute(p), ec);
+    return (ec ? fs::path(p).lexically_normal() : c).string();
+  };
+  const std::string f = canon(file);
+  if (f == canon(netPath)) return opt + " " + file + " is the network file itself: choose another file name";
+  for (const auto& u : net.fileUses())
+    if (u.resolved == f)
+      return opt + " " + file + " is the file module " + u.module + " " + (u.output ? "writes" : "reads") +
+             " through " + u.param + ": choose another file name";
+  return "";
+}
+
 std::string summaryLine(const ModuleNode& m, const ModuleState& s) {
   char head[160];
   std::snprintf(head, sizeof head, "%-5s %-22s %-9s %8.3f s", m.id.c_str(), m.info->name.c_str(),
@@ -206,6 +243,13 @@ int runNetwork(Network* net, const RunArgs& args,
     net->setOutputDir(args.outputDir);
   }
   if (reportFileConflicts(*net, args.net)) return kExitLoad;
+  for (const auto& [opt, file] : {std::pair<std::string, std::string>{"--report", args.report},
+                                  {"--progress-file", args.progressFile}})
+    if (!file.empty())
+      if (const auto clash = runnerFileClash(*net, args.net, opt, file); !clash.empty()) {
+        std::cerr << "tetflow: " << clash << "\n";
+        return kExitReport;
+      }
   // Check the report target before spending time on the run.
   if (!args.report.empty()) {
     try {
@@ -215,25 +259,65 @@ int runNetwork(Network* net, const RunArgs& args,
       return kExitReport;
     }
   }
+  // Progress: the JSON events (to stderr or --progress-file, written as they happen: a log to
+  // follow, not a result, so not written atomically) and the terminal's live lines.
+  RunProgress board;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> progressFile(nullptr, &std::fclose);
+  std::optional<JsonlProgressWriter> jsonl;
+  if (!args.progressFile.empty()) {
+    progressFile.reset(std::fopen(args.progressFile.c_str(), "w"));
+    if (!progressFile) {
+      std::cerr << "tetflow: --progress-file " << args.progressFile << ": cannot write it (" << std::strerror(errno)
+                << ")\n";
+      return kExitReport;
+    }
+    jsonl.emplace(progressFile.get(), board);
+  } else if (args.progress == "jsonl") {
+    jsonl.emplace(stderr, board);
+  }
+  std::unique_ptr<TerminalProgress> live;
+  if (!args.quiet && args.progress == "auto" && !(jsonl && !progressFile) && TerminalProgress::usable(STDERR_FILENO))
+    live = std::make_unique<TerminalProgress>(board, STDERR_FILENO);
   Executor exec;
   Executor::Options opt;
   opt.threads = args.threads;
   opt.releaseConsumed = true; // one run, nothing reused after it: memory back as soon as it can go
   std::mutex printMutex;
+  auto print = [&](const std::function<void()>& lines) {
+    if (live) return live->above(lines);
+    const std::lock_guard<std::mutex> lock(printMutex);
+    lines();
+  };
   ExecutionObserver obs;
   obs.onStatus = [&](const std::string& id, ModuleStatus st) {
-    if (st == ModuleStatus::Waiting || st == ModuleStatus::Running) return;
-    const ModuleState* s = exec.state(id);
+    if (st == ModuleStatus::Waiting) return;
     const ModuleNode* m = net->module(id);
-    if (!s || !m) return;
-    std::lock_guard<std::mutex> lock(printMutex);
+    if (!m) return;
+    if (st == ModuleStatus::Running) {
+      board.started(id, m->info->name);
+      if (jsonl) jsonl->start(id, m->info->name);
+      return;
+    }
+    board.ended(id);
+    const ModuleState* s = exec.state(id);
+    if (!s) return;
+    if (jsonl) jsonl->end(id, m->info->name, s->reused ? "reused" : moduleStatusName(st), s->seconds);
     const bool bad = st == ModuleStatus::Error;
     if (args.quiet && !bad) return;
-    (bad ? std::cerr : std::cout) << summaryLine(*m, *s) << "\n";
-    if (!args.quiet)
-      for (const auto& msg : s->messages) std::cout << "      " << msg << "\n";
-    (bad ? std::cerr : std::cout).flush();
+    print([&] {
+      (bad ? std::cerr : std::cout) << summaryLine(*m, *s) << "\n";
+      if (!args.quiet)
+        for (const auto& msg : s->messages) std::cout << "      " << msg << "\n";
+      (bad ? std::cerr : std::cout).flush();
+    });
   };
+  // Without live lines or JSON events nobody listens: the modules' reports then cost what they
+  // cost before there was live progress (one virtual call that returns).
+  if (live || jsonl)
+    obs.onProgress = [&](const std::string& id, const std::string& stage, double fraction) {
+      board.progress(id, stage, fraction);
+      if (jsonl) jsonl->progress(id, stage, fraction);
+    };
 
   g_interrupted = 0;
   std::signal(SIGINT, onSigint);
@@ -254,11 +338,14 @@ int runNetwork(Network* net, const RunArgs& args,
   } catch (const std::exception& e) {
     done = true;
     watcher.join();
+    if (live) live->stop();
     std::cerr << "tetflow: " << e.what() << "\n";
     return kExitModuleFailed;
   }
   done = true;
   watcher.join();
+  if (live) live->stop();
+  if (jsonl) jsonl->finish(sum);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   if (after) after(exec);

@@ -1,7 +1,9 @@
 #pragma once
 // Shared test helpers: a fresh temporary folder per test, removed afterwards, and small utilities.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -36,6 +38,24 @@ private:
 inline void writeBytes(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// A shell command's exit status (-1 when it did not exit) and what it wrote to stdout (add
+// " 2>&1" to the command for stderr too).
+struct ShellResult {
+  int code = -1;
+  std::string out;
+};
+inline ShellResult runShell(const std::string& command) {
+  ShellResult r;
+  FILE* p = popen(command.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
 }
 
 // Expect `stmt` to throw ExceptionType whose what() contains every given fragment.

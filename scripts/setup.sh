@@ -81,6 +81,7 @@ case "${1:-}" in
       heavy='^(Nets\.(adaptive_particles|adaptive_head|eeg_leadfield|TheHeadNetsPassTheirCertificatesOnALayeredHead|ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes)'
       heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
       heavy+='|EegForward\.VenantBeatsPartialIntegrationAtHighEccentricity'
+      heavy+='|CliProgress\.OnATerminalALiveLineFollowsTheRunningModuleAndGivesWayToItsSummary' # the other pty tests run the live lines here
       heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation'
       heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes' # Nets.bem_head runs its net here
       heavy+='|CadModulesFixture\.TheSmoothSphereNetMatchesTheAnalyticPotential)$' # Nets.eeg_sphere_cad runs it here

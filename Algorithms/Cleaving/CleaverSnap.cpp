@@ -37,7 +37,10 @@ void Cleaver::phaseVertices() {
   int64_t done = 0;
   for (int32_t v = 0; v < nv; ++v) {
     if (vtStart_[v] == vtStart_[v + 1]) continue;
-    if (++done % 4096 == 0) progress_.checkCancel();
+    if (++done % 4096 == 0) {
+      progress_.checkCancel();
+      progress_.report(double(v) / double(nv)); // the stage is this loop
+    }
     viol.clear();
     const int32_t stampA = 2 * v, stampB = 2 * v + 1;
     forFreePointsAround(v, stampA, edgeStamp, faceStamp, [&](Ref r) {
@@ -154,7 +157,10 @@ void Cleaver::generalize() {
   // lowest dimension, then the most collocated cuts, then the lowest id.
   progress_.checkCancel();
   for (int32_t f = 0; f < nf; ++f) {
-    progress_.checkCancelEvery(f, 16);
+    if ((f & 0xffff) == 0) {
+      progress_.checkCancel();
+      progress_.report(double(f) / double(nf)); // the bulk of the stage
+    }
     if (triReal_[f]) continue;
     const auto& v = faceV_[f];
     int32_t edges[3][2];

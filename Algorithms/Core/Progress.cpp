@@ -64,6 +64,7 @@ void Progress::endStage() {
   const auto now = std::chrono::steady_clock::now();
   stages_.push_back({current_, std::chrono::duration<double>(now - start_).count()});
   inStage_ = false;
+  onStageEnd(current_, stages_.back().seconds);
 }
 
 namespace {

@@ -52,6 +52,8 @@ public:
 protected:
   virtual void onStage(const std::string& /*name*/) {}
   virtual void onReport(double /*fraction*/) {}
+  // The current stage ended (endStage, the next beginStage, or the module's end).
+  virtual void onStageEnd(const std::string& /*name*/, double /*seconds*/) {}
 
 private:
   // Diagnostic for the cancellation promise (README "Reliability"): with the environment variable

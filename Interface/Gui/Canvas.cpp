@@ -90,7 +90,8 @@ ModuleItem::ModuleItem(const ModuleNode& node) : id_(node.id), info_(node.info) 
     p->setPos(kPortFirst + kPortPitch * qreal(i), height_);
     outputs_.push_back(p);
   }
-  setToolTip(QString("%1 (%2)\n%3").arg(qs(id_), qs(info_->name), qs(info_->description)));
+  baseTip_ = QString("%1 (%2)\n%3").arg(qs(id_), qs(info_->name), qs(info_->description));
+  setToolTip(baseTip_);
   setPos(node.x, node.y);
 }
 
@@ -98,7 +99,11 @@ QRectF ModuleItem::boundingRect() const { return QRectF(-3, -3, width_ + 6, heig
 
 QString ModuleItem::statusText() const {
   QString t = moduleStatusName(status_);
-  if (status_ == ModuleStatus::Running) {
+  if (status_ == ModuleStatus::Running && live_) {
+    // What the headless runner's live line says, less the id and name the box shows already.
+    t += QString(" %1 s").arg(live_->seconds, 0, 'f', 1);
+    if (!live_->stage.empty()) t += " · " + qs(liveStageText(*live_));
+  } else if (status_ == ModuleStatus::Running) {
     t += QString(" %1 s").arg(clock_.isValid() ? clock_.elapsed() / 1000.0 : 0.0, 0, 'f', 1);
     if (!stage_.isEmpty()) t += QString(" · %1 %2%").arg(stage_).arg(int(std::round(progress_ * 100)));
   } else if (seconds_ >= 0 && (status_ == ModuleStatus::Done || status_ == ModuleStatus::Error ||
@@ -131,7 +136,9 @@ void ModuleItem::paint(QPainter* p, const QStyleOptionGraphicsItem*, QWidget*) {
   p->drawText(QRectF(8, 6, width_ - 16, kTitleH - 4), Qt::AlignRight | Qt::AlignVCenter, qs(id_));
   // status line
   p->setPen(sc.lighter(130));
-  p->drawText(QRectF(8, kTitleH + 2, width_ - 16, 16), Qt::AlignLeft | Qt::AlignVCenter, statusText());
+  // Elided to the box (the whole text is in the tooltip while it runs).
+  const QString status = QFontMetricsF(small).elidedText(statusText(), Qt::ElideRight, width_ - 16);
+  p->drawText(QRectF(8, kTitleH + 2, width_ - 16, 16), Qt::AlignLeft | Qt::AlignVCenter, status);
   // progress bar
   const QRectF bar(8, height_ - 14, width_ - 16, 6);
   p->setPen(Qt::NoPen);
@@ -146,6 +153,10 @@ void ModuleItem::paint(QPainter* p, const QStyleOptionGraphicsItem*, QWidget*) {
 }
 
 void ModuleItem::setStatus(ModuleStatus s, double seconds) {
+  if (s != ModuleStatus::Running && live_) {
+    live_.reset();
+    setToolTip(baseTip_);
+  }
   if (s == ModuleStatus::Running && status_ != ModuleStatus::Running) {
     clock_.start();
     progress_ = 0;
@@ -172,8 +183,15 @@ void ModuleItem::setProgress(const QString& stage, double fraction) {
   update();
 }
 
-void ModuleItem::tick() {
-  if (status_ == ModuleStatus::Running) update();
+void ModuleItem::tick(const std::optional<RunProgress::Entry>& live) {
+  if (status_ != ModuleStatus::Running) return;
+  if (live) {
+    live_ = live;
+    if (live_->fractionKnown) progress_ = live_->fraction;
+    stage_ = qs(live_->stage);
+    setToolTip(baseTip_ + "\n" + statusText());
+  }
+  update();
 }
 
 QVariant ModuleItem::itemChange(GraphicsItemChange change, const QVariant& value) {
@@ -265,7 +283,7 @@ NetworkScene::NetworkScene(QUndoStack* undo, QObject* parent) : QGraphicsScene(p
     bool any = false;
     for (auto& [id, m] : modules_)
       if (m->status() == ModuleStatus::Running) {
-        m->tick();
+        m->tick(liveSource_ ? liveSource_(id) : std::nullopt);
         any = true;
       }
     if (!any) ticker_.stop();

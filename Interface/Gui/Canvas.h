@@ -3,7 +3,8 @@
 // and edits it only through undoable commands on the network API.
 //
 //   ModuleItem  box with title, input ports on the top edge, outputs on the bottom edge
-//               (SCIRun's top-to-bottom flow), status colour, progress bar and elapsed time.
+//               (SCIRun's top-to-bottom flow), status colour, progress bar, elapsed time and,
+//               while it runs, its current stage with the stage's percent and time left.
 //   PortItem    coloured by port type; tooltip "name (Type)"; highlighted while a wire is
 //               dragged when Network::checkConnection allows the wire, dimmed when it refuses.
 //   WireItem    cubic Bézier from an output to an input, coloured by the output's type.
@@ -16,11 +17,14 @@
 #include <QPointer>
 #include <QTimer>
 
+#include <functional>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "Dataflow/Executor.h"
 #include "Dataflow/Network.h"
+#include "Dataflow/RunProgress.h"
 
 class QUndoStack;
 
@@ -78,8 +82,9 @@ public:
   ModuleStatus status() const { return status_; }
   void setProgress(const QString& stage, double fraction);
   double progress() const { return progress_; }
-  // Called by the scene's timer while running: refreshes the elapsed time.
-  void tick();
+  // Called by the scene's timer while running: refreshes the elapsed time, and the stage with
+  // its elapsed time and estimate when the run tells them (live).
+  void tick(const std::optional<RunProgress::Entry>& live = std::nullopt);
   QString statusText() const;
 
   void addWire(WireItem* w) { wires_.push_back(w); }
@@ -98,6 +103,8 @@ private:
   ModuleStatus status_ = ModuleStatus::Idle;
   double progress_ = 0;
   QString stage_;
+  std::optional<RunProgress::Entry> live_; // while running, from the run's progress board
+  QString baseTip_;
   double seconds_ = -1;
   QElapsedTimer clock_;
 };
@@ -149,6 +156,10 @@ public:
   // Execution feedback (GUI thread).
   void setModuleStatus(const std::string& id, ModuleStatus s, double seconds = -1);
   void setModuleProgress(const std::string& id, const QString& stage, double fraction);
+  // Where the ticker reads a running module's live progress (ExecutionController::liveProgress).
+  void setLiveProgressSource(std::function<std::optional<RunProgress::Entry>(const std::string&)> f) {
+    liveSource_ = std::move(f);
+  }
   void resetStatuses();
 
   bool isDraggingWire() const { return dragWire_ != nullptr; }
@@ -191,6 +202,7 @@ private:
   std::map<std::string, QPointF> pressPositions_;
   bool syncing_ = false; // applying a model position to an item
   QTimer ticker_;
+  std::function<std::optional<RunProgress::Entry>(const std::string&)> liveSource_;
 };
 
 class NetworkView : public QGraphicsView {

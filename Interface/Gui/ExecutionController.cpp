@@ -30,13 +30,20 @@ bool ExecutionController::start(const Network& net, const std::vector<std::strin
   Executor::Options opt;
   opt.only = only;
   opt.threads = threads;
-  worker_ = std::thread([this, opt, snap = snapshot_] {
+  board_ = std::make_shared<RunProgress>();
+  worker_ = std::thread([this, opt, snap = snapshot_, board = board_] {
     ExecutionObserver obs;
-    obs.onStatus = [this](const std::string& id, ModuleStatus st) {
+    obs.onStatus = [this, snap, board](const std::string& id, ModuleStatus st) {
+      if (st == ModuleStatus::Running) {
+        if (const ModuleNode* m = snap->module(id)) board->started(id, m->info->name);
+      } else if (st != ModuleStatus::Waiting) {
+        board->ended(id);
+      }
       QMetaObject::invokeMethod(
           this, [this, id = qs(id), st] { emit moduleStatus(id, int(st)); }, Qt::QueuedConnection);
     };
-    obs.onProgress = [this](const std::string& id, const std::string& stage, double f) {
+    obs.onProgress = [this, board](const std::string& id, const std::string& stage, double f) {
+      board->progress(id, stage, f);
       {
         std::lock_guard<std::mutex> lock(progressMutex_);
         progress_[id] = {stage, f};
@@ -80,6 +87,10 @@ void ExecutionController::onFinished() {
   running_ = false;
   snapshot_.reset();
   emit finished(summary_.success && error_.isEmpty());
+}
+
+std::optional<RunProgress::Entry> ExecutionController::liveProgress(const std::string& id) const {
+  return board_->entry(id);
 }
 
 void ExecutionController::cancel() {

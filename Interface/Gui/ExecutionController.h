@@ -15,9 +15,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "Dataflow/Executor.h"
+#include "Dataflow/RunProgress.h"
 
 namespace tetflow::gui {
 
@@ -39,6 +41,9 @@ public:
   const Executor& executor() const { return exec_; }
   const ModuleState* state(const std::string& id) const { return running_ ? nullptr : exec_.state(id); }
   const Executor::Summary& lastSummary() const { return summary_; }
+  // A running module's stage, fraction, elapsed time and estimate (the headless runner's live
+  // line shows the same); nullopt when it is not running. Thread-safe.
+  std::optional<RunProgress::Entry> liveProgress(const std::string& id) const;
   const QString& lastError() const { return error_; }
 
 signals:
@@ -60,6 +65,7 @@ private:
   std::mutex progressMutex_;
   std::map<std::string, std::pair<std::string, double>> progress_;
   std::atomic<bool> flushQueued_{false};
+  std::shared_ptr<RunProgress> board_ = std::make_shared<RunProgress>(); // replaced per run
 };
 
 } // namespace tetflow::gui

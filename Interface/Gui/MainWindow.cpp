@@ -43,6 +43,7 @@ MainWindow::MainWindow(const ModuleRegistry& registry, QWidget* parent)
   view_ = new NetworkView(scene_);
   setCentralWidget(view_);
   exec_ = new ExecutionController(this);
+  scene_->setLiveProgressSource([this](const std::string& id) { return exec_->liveProgress(id); });
   createDocks();
   createActions();
   {

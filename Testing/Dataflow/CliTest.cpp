@@ -29,23 +29,9 @@
 
 namespace {
 
-struct Result {
-  int code;
-  std::string out; // stdout and stderr together
-};
+using Result = tetflow::test::ShellResult; // out: stdout and stderr together
 
-Result run(const std::string& args) {
-  const std::string cmd = std::string(TETFLOW_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  Result r{-1, ""};
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+Result run(const std::string& args) { return tetflow::test::runShell(std::string(TETFLOW_CLI) + " " + args + " 2>&1"); }
 
 void write(const std::string& path, const std::string& text) { tetflow::test::writeBytes(path, text); }
 
@@ -307,13 +293,7 @@ TEST(Cli, ASignalDuringARunCancelsItAndKeepsTheOldOutput) {
     // about 4 s) and reports its exit status.
     const std::string cmd = "sh -c '" + std::string(TETFLOW_CLI) + " run " + net + " --quiet --output-dir " + out +
                             " & p=$!; sleep 1.5; kill -" + sig + " $p; wait $p; echo status=$?' 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    ASSERT_NE(p, nullptr);
-    std::string text;
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) text.append(buf.data(), n);
-    pclose(p);
+    const std::string text = tetflow::test::runShell(cmd).out;
     EXPECT_NE(text.find("status=" + std::to_string(code)), std::string::npos) << sig << ": " << text;
     EXPECT_NE(text.find("cancelled"), std::string::npos) << text;
     const auto bytes = tetflow::readFileBytes(out + "/head.vtu");

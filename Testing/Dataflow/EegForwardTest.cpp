@@ -390,21 +390,7 @@ TEST(EegForward, PetscBackendMatchesEigen) {
 
 #ifdef TETFLOW_MPIRUN
 namespace {
-struct Cmd {
-  int code;
-  std::string out;
-};
-Cmd shell(const std::string& cmd) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  Cmd r{-1, ""};
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+tetflow::test::ShellResult shell(const std::string& cmd) { return tetflow::test::runShell(cmd + " 2>&1"); }
 // OpenMPI refuses root unless told; --oversubscribe lets 2 ranks run on any core count. The
 // variables of this process's own MPI (a singleton, when an in-process PETSc test ran first) are
 // removed, or mpirun would take the job for a nested one.
@@ -454,10 +440,10 @@ TEST(EegForward, MpirunTwoRanksMatchesEigen) {
     saveNetwork(dir.file(std::string(backend) + ".srn"), net);
   }
   const std::string common = " --output-dir ";
-  const Cmd e = shell(std::string(TETFLOW_CLI) + " run " + dir.file("eigen.srn") + common + dir.file("oe") +
+  const auto e = shell(std::string(TETFLOW_CLI) + " run " + dir.file("eigen.srn") + common + dir.file("oe") +
                       " --report " + dir.file("e.json"));
   ASSERT_EQ(e.code, 0) << e.out;
-  const Cmd p = shell(mpirun(2) + " run " + dir.file("petsc.srn") + common + dir.file("op") + " --report " +
+  const auto p = shell(mpirun(2) + " run " + dir.file("petsc.srn") + common + dir.file("op") + " --report " +
                       dir.file("p.json"));
   ASSERT_EQ(p.code, 0) << p.out;
   // One summary line: only rank 0 reports.
@@ -504,7 +490,7 @@ TEST(EegForward, MpirunFailureEndsEveryRank) {
   addDipole(net, "fem", "0 0 50", "0 0 1"); // outside the head
   net.setParameterText("fem", "solver_backend", "petsc");
   saveNetwork(dir.file("bad.srn"), net);
-  const Cmd r = shell("timeout 120 " + mpirun(2) + " run " + dir.file("bad.srn") + " --output-dir " + dir.file("o"));
+  const auto r = shell("timeout 120 " + mpirun(2) + " run " + dir.file("bad.srn") + " --output-dir " + dir.file("o"));
   EXPECT_NE(r.code, 0) << r.out;
   EXPECT_NE(r.code, 124) << "timed out: a rank hung\n" << r.out;
   EXPECT_NE(r.out.find("outside the mesh"), std::string::npos) << r.out;

@@ -1,6 +1,7 @@
 #pragma once
 // Small modules for Dataflow tests: they count executions, record concurrency, fail or wait for
 // cancellation on request. Registered in a test registry next to the standard modules.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <map>
@@ -72,6 +73,38 @@ public:
   }
 };
 
+// "Staged": `stages` stages named "stage 1", "stage 2", ... of `stage_seconds` each, in which two
+// worker threads report fractions as fast as they can, out of order (the second lags the first by
+// a tenth), as an OpenMP loop's threads do. Counts its report() calls (reportCalls()).
+inline std::atomic<int64_t>& reportCalls() {
+  static std::atomic<int64_t> n{0};
+  return n;
+}
+class StagedModule : public Module {
+public:
+  void execute(ExecutionContext& ctx) override {
+    const int64_t stages = ctx.getInt("stages");
+    const double seconds = ctx.getDouble("stage_seconds");
+    for (int64_t s = 1; s <= stages; ++s) {
+      ctx.progress().beginStage("stage " + std::to_string(s));
+      const auto t0 = std::chrono::steady_clock::now();
+      auto work = [&](double lag) {
+        for (;;) {
+          const double f = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / seconds;
+          if (f >= 1.0) break;
+          ctx.progress().report(std::max(0.0, f - lag));
+          ++reportCalls();
+        }
+      };
+      std::thread other(work, 0.1);
+      work(0.0);
+      other.join();
+      ctx.progress().checkCancel();
+    }
+    ctx.report().set("stages", ReportValue(stages));
+  }
+};
+
 inline void registerTestModules(ModuleRegistry& reg) {
   registerStandardModules(reg);
   ModuleInfo m;
@@ -95,6 +128,13 @@ inline void registerTestModules(ModuleRegistry& reg) {
   sink.inputs = {{"volume", {PortType::LabelVolume}, ""}};
   sink.factory = [] { return std::make_unique<NumberModule>(); };
   reg.add(sink);
+  ModuleInfo staged;
+  staged.name = "Staged";
+  staged.category = "Test";
+  staged.params = {{"stages", ParamType::Int, int64_t(2), 0.0, 100.0, {}, "", "", false, false},
+                   {"stage_seconds", ParamType::Double, 0.3, 0.0, 60.0, {}, "", "", false, false}};
+  staged.factory = [] { return std::make_unique<StagedModule>(); };
+  reg.add(staged);
 }
 
 } // namespace tetflow::test

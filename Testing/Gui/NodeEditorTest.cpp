@@ -11,6 +11,8 @@
 #include <QTreeWidget>
 #include <QFile>
 #include <QPlainTextEdit>
+#include <QRegularExpression>
+#include <QSet>
 #include <QSignalSpy>
 #include <QStandardPaths>
 #include <QTemporaryDir>
@@ -385,6 +387,41 @@ private slots:
     emit scene()->moduleContextAction(QString::fromStdString(cm), "execute");
     QVERIFY(win_->execution()->waitForFinished(60000));
     QCOMPARE(win_->execution()->lastSummary().ran, 2); // cm and q; ph and bg were current
+  }
+
+  void runningModuleShowsItsStageAndElapsedTime() {
+    // The default net's head phantom -> lattice -> cleave: CleaveMesh runs for seconds, through
+    // named stages. While it runs its box says how long it has run and which stage it is in.
+    const auto ph = scene()->addModule("CreatePhantom", {0, 0});
+    net().setParameterText(ph, "kind", "head");
+    net().setParameterText(ph, "voxel_size", "2");
+    const auto bg = scene()->addModule("GenerateBackgroundMesh", {0, 120});
+    net().setParameterText(bg, "cell_size", "4");
+    const auto cm = scene()->addModule("CleaveMesh", {0, 240});
+    QVERIFY(scene()->tryConnect(ph, 0, bg, 0).isEmpty());
+    QVERIFY(scene()->tryConnect(ph, 0, cm, 0).isEmpty());
+    QVERIFY(scene()->tryConnect(bg, 0, cm, 1).isEmpty());
+    QVERIFY(win_->executeAll());
+    ModuleItem* item = scene()->moduleItem(cm);
+    const QRegularExpression live(R"(^running ([0-9.]+) s · ([a-z /]+))");
+    QSet<QString> stages, elapsed;
+    QString tip;
+    while (win_->execution()->isRunning()) {
+      QTest::qWait(50);
+      if (item->status() != ModuleStatus::Running) continue;
+      const auto m = live.match(item->statusText());
+      if (!m.hasMatch()) continue;
+      elapsed.insert(m.captured(1));
+      stages.insert(m.captured(2).trimmed());
+      tip = item->toolTip();
+    }
+    QVERIFY(win_->execution()->waitForFinished(60000));
+    QCOMPARE(item->status(), ModuleStatus::Done);
+    QVERIFY2(elapsed.size() >= 2, qPrintable(QStringList(elapsed.values()).join(", ")));
+    QVERIFY2(!stages.isEmpty(), "no stage shown while CleaveMesh ran");
+    QVERIFY2(tip.contains("running"), qPrintable(tip)); // the whole line is in the tooltip
+    QVERIFY(item->statusText().startsWith("done"));
+    QVERIFY(!item->toolTip().contains("running"));
   }
 
   void reportParsers() {
