@@ -13,6 +13,8 @@ namespace tetflow {
 
 namespace {
 constexpr auto kRedraw = std::chrono::milliseconds(200);
+// A module gets its live line once it has run this long: quicker ones would only flash.
+constexpr double kShowAfterSeconds = 0.25;
 } // namespace
 
 bool TerminalProgress::usable(int fd) {
@@ -53,7 +55,8 @@ std::string TerminalProgress::drawText() {
   // One column short of the width, so that no line wraps (a wrapped line would break the count
   // the next erase moves up by).
   const size_t width = cols > 1 ? cols - 1 : 1;
-  const auto running = board_.running();
+  auto running = board_.running();
+  std::erase_if(running, [](const RunProgress::Entry& e) { return e.seconds < kShowAfterSeconds; });
   const size_t room = rows > 3 ? rows - 2 : 1;
   std::string out;
   shown_ = 0;

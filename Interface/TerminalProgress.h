@@ -1,6 +1,6 @@
 #pragma once
 // The headless runner's live lines on a terminal (README "Headless runner", issue 29): one line
-// per running module below everything printed so far, redrawn in place five times a second by a
+// per running module (once it has run a quarter of a second) below everything printed so far, redrawn in place five times a second by a
 // thread of its own; lines printed through above() appear above them, so a module's summary line
 // replaces its live line when it ends. Only for a terminal that moves its cursor (isatty, TERM not
 // "dumb"); the runner does not create one otherwise, so logs and pipes see no escape codes.

@@ -136,8 +136,11 @@ void ModuleItem::paint(QPainter* p, const QStyleOptionGraphicsItem*, QWidget*) {
   p->drawText(QRectF(8, 6, width_ - 16, kTitleH - 4), Qt::AlignRight | Qt::AlignVCenter, qs(id_));
   // status line
   p->setPen(sc.lighter(130));
-  // Elided to the box (the whole text is in the tooltip while it runs).
-  const QString status = QFontMetricsF(small).elidedText(statusText(), Qt::ElideRight, width_ - 16);
+  // Elided to the box (the whole text is in the tooltip while it runs). A running box's colour
+  // says "running", so its line leaves the word out and keeps the room for the stage.
+  QString text = statusText();
+  if (status_ == ModuleStatus::Running && text.startsWith("running ")) text = text.mid(8);
+  const QString status = QFontMetricsF(small).elidedText(text, Qt::ElideRight, width_ - 16);
   p->drawText(QRectF(8, kTitleH + 2, width_ - 16, 16), Qt::AlignLeft | Qt::AlignVCenter, status);
   // progress bar
   const QRectF bar(8, height_ - 14, width_ - 16, 6);

@@ -276,6 +276,47 @@ TEST(CliProgress, OnATerminalALiveLineFollowsTheRunningModuleAndGivesWayToItsSum
   EXPECT_NE(all.find("5 ran, 0 reused, 0 failed"), std::string::npos) << all;
 }
 
+TEST(CliProgress, ModulesRunningAtOnceEachHaveALiveLine) {
+  // Two background meshes of one phantom, side by side (two worker threads): a second or two each.
+  tetflow::test::TempDir tmp;
+  tetflow::test::writeBytes(tmp.file("two.srn"), R"(<?xml version="1.0"?>
+<network version="tetflow-1">
+  <modules>
+    <module id="m1" name="CreatePhantom">
+      <var name="kind" val="{head}"/>
+      <var name="voxel_size" val="{2}"/>
+    </module>
+    <module id="m2" name="GenerateBackgroundMesh">
+      <var name="cell_size" val="{4}"/>
+    </module>
+    <module id="m3" name="GenerateBackgroundMesh">
+      <var name="cell_size" val="{5}"/>
+    </module>
+  </modules>
+  <connections>
+    <connection id="c1" from="m1" fromport="0" to="m2" toport="0"/>
+    <connection id="c2" from="m1" fromport="0" to="m3" toport="0"/>
+  </connections>
+</network>
+)");
+  const Result r = runUnderPty({"run", tmp.file("two.srn"), "--threads", "2"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  // Some redraw (the text after one clear of the screen's end, up to the next escape) holds both.
+  bool both = false;
+  for (size_t at = 0; !both && at != std::string::npos; at = r.out.find("\x1b[J", at + 1)) {
+    const size_t from = at == 0 ? 0 : at + 3;
+    const std::string frame = r.out.substr(from, r.out.find('\x1b', from) - from);
+    both = frame.find("m2    GenerateBackgroundMesh running") != std::string::npos &&
+           frame.find("m3    GenerateBackgroundMesh running") != std::string::npos;
+  }
+  EXPECT_TRUE(both) << r.out;
+  std::string all;
+  for (const auto& l : screen(r.out)) all += l + "\n";
+  EXPECT_EQ(all.find(" running "), std::string::npos) << all;
+  EXPECT_NE(all.find("m2    GenerateBackgroundMesh done"), std::string::npos) << all;
+  EXPECT_NE(all.find("m3    GenerateBackgroundMesh done"), std::string::npos) << all;
+}
+
 TEST(CliProgress, PipesQuietAndProgressNoneGetNoLiveLines) {
   tetflow::test::TempDir tmp;
   const std::string net = tmp.file("n.srn");
