@@ -3,6 +3,8 @@
 //   tetflow run NET.srn [--set m3.param=value]... [--report out.json] [--threads N] [--max-memory SIZE] [--quiet]
 //                       [--progress auto|none|jsonl] [--progress-file FILE]
 //   tetflow -E NET.srn ...          (SCIRun's spelling of `run`)
+//   tetflow mesh LABELS [-o MESH] [--cell-size MM | --adaptive [--min-size MM] [--max-size MM]]
+//                [--background regular|octree|particles] [--format F] [--certify] [--save-net NET.srn]
 //   tetflow validate NET.srn [--set ...]
 //   tetflow list-modules
 //   tetflow describe MODULE
@@ -13,6 +15,7 @@
 // command-line arguments; 3 the network file cannot be loaded or a --set is invalid for it;
 // 4 the --report or --progress-file file cannot be written; 130 cancelled by Ctrl-C, 143 by SIGTERM.
 #include <atomic>
+#include <cmath>
 #include <cerrno>
 #include <cstring>
 #include <memory>
@@ -35,6 +38,8 @@
 #include "Dataflow/Executor.h"
 #include "Dataflow/NetworkFile.h"
 #include "Dataflow/RunReport.h"
+#include "Algorithms/IO/VolumeIO.h"
+#include "Modules/MeshLabelsNet.h"
 #include "Modules/StandardModules.h"
 #include "Dataflow/RunProgress.h"
 #include "Interface/HugePages.h"
@@ -66,6 +71,7 @@ extern "C" void onSigint(int sig) {
 const char* kUsage =
     "usage:\n"
     "  tetflow run NET.srn [options]     execute a network (also: tetflow -E NET.srn)\n"
+    "  tetflow mesh LABELS [options]     mesh a label volume file (the network the shipped nets use)\n"
     "  tetflow validate NET.srn [--set]  load and check a network without running it\n"
     "  tetflow list-modules              list the available modules\n"
     "  tetflow describe MODULE           ports and parameters of a module\n"
@@ -84,6 +90,20 @@ const char* kUsage =
     "                         elapsed time) until its summary line replaces it; none: no live lines;\n"
     "                         jsonl: one JSON object per progress event on stderr instead\n"
     "  --progress-file FILE   write the JSON progress events to FILE as they happen\n"
+    "options for mesh (also every option for run):\n"
+    "  -o, --output MESH      the mesh file (default: the volume's name with .vtu, in the current folder)\n"
+    "  --format F             vtu, vtk, msh, msh22, msh22_binary or tetgen (default: from MESH's extension)\n"
+    "  --background B         regular (default), octree or particles; octree and particles follow a\n"
+    "                         sizing field from the image's features\n"
+    "  --adaptive             the same as --background octree\n"
+    "  --cell-size MM         regular: the lattice's cell edge (default 2 x the voxel size)\n"
+    "  --min-size MM, --max-size MM  octree, particles: the element sizes' range (default 2 x and\n"
+    "                         16 x the voxel size)\n"
+    "  --label-table FILE     tissue names for the labels (default: a table beside the volume)\n"
+    "  --certify              fail unless every label is within 1.5 %, every component is kept, no\n"
+    "                         spurious contact appears and every tet is in [10, 160] deg\n"
+    "  --save-net NET.srn     also write the network, to open in tetflow-gui or run again\n"
+    "  --no-run               with --save-net: write the network, do not run it\n"
     "options for certify (also --report, --threads, --max-memory, --quiet):\n"
     "  --max-volume-error PCT fail when a label's |volume error| exceeds PCT percent\n"
     "  --require-components   fail on a lost, split, merged or spurious component\n"
@@ -209,11 +229,11 @@ std::string runnerFileClash(const Network& net, const std::string& netPath, cons
     return (ec ? fs::path(p).lexically_normal() : c).string();
   };
   const std::string f = canon(file);
-  if (f == canon(netPath)) return opt + " " + file + " is the network file itself: choose another file name";
   for (const auto& u : net.fileUses())
     if (u.resolved == f)
       return opt + " " + file + " is the file module " + u.module + " " + (u.output ? "writes" : "reads") +
              " through " + u.param + ": choose another file name";
+  if (!netPath.empty() && f == canon(netPath)) return opt + " " + file + " is the network file itself: choose another file name";
   return "";
 }
 
@@ -515,6 +535,146 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   });
 }
 
+// tetflow mesh LABELS: the network of Modules/MeshLabelsNet.h for the file, its sizes chosen from
+// the voxels (printed), run as `tetflow run` runs a net; --save-net writes it as a .srn.
+int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
+  namespace fs = std::filesystem;
+  MeshLabelsOptions o;
+  std::string saveNet, background;
+  bool adaptive = false, noRun = false, sizeGiven = false, rangeGiven = false;
+  std::vector<std::string> rest{"mesh"}; // the options `run` has, parsed below
+  for (size_t i = 1; i < a.size(); ++i) {
+    const std::string& s = a[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= a.size()) throw std::invalid_argument(s + " needs a value");
+      return a[++i];
+    };
+    auto size = [&]() {
+      const std::string v = value();
+      size_t used = 0;
+      double d = -1;
+      try { d = std::stod(v, &used); } catch (...) {}
+      if (used != v.size() || !(d > 0) || !std::isfinite(d))
+        throw std::invalid_argument(s + " '" + v + "' must be a size in mm above 0");
+      return d;
+    };
+    try {
+      if (s == "-o" || s == "--output") o.output = value();
+      else if (s == "--format") o.format = value();
+      else if (s == "--background") background = value();
+      else if (s == "--adaptive") adaptive = true;
+      else if (s == "--cell-size") o.cellSize = size(), sizeGiven = true;
+      else if (s == "--min-size") o.minSize = size(), rangeGiven = true;
+      else if (s == "--max-size") o.maxSize = size(), rangeGiven = true;
+      else if (s == "--label-table") o.labelTable = value();
+      else if (s == "--certify") o.certify = true;
+      else if (s == "--save-net") saveNet = value();
+      else if (s == "--no-run") noRun = true;
+      else rest.push_back(s);
+    } catch (const std::invalid_argument& e) {
+      return usageError(e.what());
+    }
+  }
+  RunArgs r;
+  if (auto err = parseRunArgs(rest, 1, r, true); !err.empty())
+    return usageError(err == "no network file given" ? "mesh needs a label volume file" : err);
+  o.labels = r.net;
+  if (!background.empty()) {
+    const auto b = meshBackgroundFromName(background);
+    if (!b) return usageError("--background '" + background + "' must be regular, octree or particles");
+    o.background = *b;
+  }
+  if (adaptive && o.background == MeshBackground::Regular) {
+    if (!background.empty()) return usageError("--adaptive and --background regular contradict each other");
+    o.background = MeshBackground::Octree;
+  }
+  if (sizeGiven && o.background != MeshBackground::Regular)
+    return usageError("--cell-size is the regular lattice's; the " + std::string(meshBackgroundName(o.background)) +
+                      " background takes --min-size and --max-size");
+  if (rangeGiven && o.background == MeshBackground::Regular)
+    return usageError("--min-size and --max-size are for --adaptive (or --background octree or particles); the "
+                      "regular lattice takes --cell-size");
+  if (o.minSize > 0 && o.maxSize > 0 && o.minSize > o.maxSize) return usageError("--min-size exceeds --max-size");
+  if (noRun && saveNet.empty()) return usageError("--no-run needs --save-net (there would be nothing to do)");
+  const std::string fmt = o.format;
+  if (fmt != "auto" && fmt != "vtu" && fmt != "vtk" && fmt != "msh" && fmt != "msh22" && fmt != "msh22_binary" &&
+      fmt != "tetgen")
+    return usageError("--format '" + fmt + "' must be vtu, vtk, msh, msh22, msh22_binary or tetgen");
+
+  // The volume, for its voxel size (it is read again by the network's ReadLabelVolume).
+  GridGeometry grid;
+  {
+    LabelVolume v;
+    try {
+      v = readLabelVolume(o.labels);
+    } catch (const InputError& e) {
+      std::cerr << "tetflow: " << e.what() << "\n";
+      return kExitLoad;
+    }
+    grid = v.grid;
+    if (!r.quiet) {
+      std::printf("mesh: %s: %lld x %lld x %lld voxels of %s x %s x %s mm\n", o.labels.c_str(),
+                  static_cast<long long>(grid.dims[0]), static_cast<long long>(grid.dims[1]),
+                  static_cast<long long>(grid.dims[2]), formatDouble(grid.spacing[0]).c_str(),
+                  formatDouble(grid.spacing[1]).c_str(), formatDouble(grid.spacing[2]).c_str());
+    }
+  }
+  if (o.output.empty()) o.output = defaultMeshFileName(o.labels, fmt); // in the current folder
+  const auto lines = chooseMeshSizes(o, grid);
+  if (!r.quiet) {
+    std::printf("mesh: %s background; %s\n", meshBackgroundName(o.background),
+                o.certify ? "the run fails unless the mesh passes the certificate (--certify)"
+                          : "the certificate is reported (--certify to fail on it)");
+    for (const auto& l : lines) std::printf("mesh: %s\n", l.c_str());
+    std::printf("mesh: writing %s\n", o.output.c_str());
+    std::fflush(stdout);
+  }
+
+  // Run with absolute paths; save with paths relative to the saved network's folder.
+  auto absolute = [](const std::string& f) { return f.empty() ? f : fs::absolute(f).lexically_normal().string(); };
+  MeshLabelsOptions run = o;
+  run.labels = absolute(o.labels);
+  run.output = absolute(o.output);
+  run.labelTable = absolute(o.labelTable);
+  std::unique_ptr<Network> net;
+  try {
+    net = std::make_unique<Network>(buildMeshLabelsNetwork(reg, run));
+  } catch (const InputError& e) {
+    std::cerr << "tetflow: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  if (!saveNet.empty()) {
+    const fs::path dir = fs::absolute(saveNet).parent_path();
+    auto relative = [&](const std::string& f) {
+      if (f.empty()) return f;
+      std::error_code ec;
+      const fs::path rel = fs::relative(f, dir, ec);
+      return ec || rel.empty() ? f : rel.generic_string();
+    };
+    MeshLabelsOptions saved = run;
+    saved.labels = relative(run.labels);
+    saved.output = relative(run.output);
+    saved.labelTable = relative(run.labelTable);
+    if (const auto clash = runnerFileClash(*net, "", "--save-net", saveNet); !clash.empty()) {
+      std::cerr << "tetflow: " << clash << "\n";
+      return kExitReport;
+    }
+    try {
+      saveNetwork(saveNet, buildMeshLabelsNetwork(reg, saved));
+    } catch (const InputError& e) {
+      std::cerr << "tetflow: --save-net: " << e.what() << "\n";
+      return kExitReport;
+    }
+    if (!r.quiet) std::printf("mesh: network saved to %s (tetflow-gui %s opens it)\n", saveNet.c_str(), saveNet.c_str());
+    if (noRun) return 0;
+  }
+  if (const auto problems = applySets(*net, r.sets); !problems.empty()) {
+    for (const auto& p : problems) std::cerr << "tetflow: " << p << "\n";
+    return kExitLoad;
+  }
+  return runNetwork(net.get(), r);
+}
+
 int cmdValidate(const RunArgs& args, const ModuleRegistry& reg) {
   std::unique_ptr<Network> net;
   if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
@@ -616,6 +776,7 @@ int main(int argc, char** argv) {
       return cmdRun(r, reg);
     }
     if (cmd == "certify") return cmdCertify(a, reg);
+    if (cmd == "mesh") return cmdMesh(a, reg);
     if (cmd == "validate") {
       RunArgs r;
       if (auto err = parseRunArgs(a, 1, r, false); !err.empty()) return usageError(err);

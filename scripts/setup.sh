@@ -82,6 +82,7 @@ case "${1:-}" in
       heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
       heavy+='|EegForward\.VenantBeatsPartialIntegrationAtHighEccentricity'
       heavy+='|CliProgress\.OnATerminalALiveLineFollowsTheRunningModuleAndGivesWayToItsSummary' # the other pty tests run the live lines here
+      heavy+='|MeshCommand\.EachBackgroundMeshesTheBundledHeadTheSameFromNiftiAndNrrd' # Nets.mesh_labels* run here
       heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation'
       heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes' # Nets.bem_head runs its net here
       heavy+='|CadModulesFixture\.TheSmoothSphereNetMatchesTheAnalyticPotential)$' # Nets.eeg_sphere_cad runs it here

@@ -601,17 +601,26 @@ void NetworkView::wheelEvent(QWheelEvent* e) {
   e->accept();
 }
 
+namespace {
+bool hasLocalFile(const QMimeData* m) { return m->hasUrls() && !m->urls().isEmpty() && m->urls().first().isLocalFile(); }
+} // namespace
+
 void NetworkView::dragEnterEvent(QDragEnterEvent* e) {
-  if (e->mimeData()->hasFormat(kModuleMime)) e->acceptProposedAction();
+  if (e->mimeData()->hasFormat(kModuleMime) || hasLocalFile(e->mimeData())) e->acceptProposedAction();
   else QGraphicsView::dragEnterEvent(e);
 }
 
 void NetworkView::dragMoveEvent(QDragMoveEvent* e) {
-  if (e->mimeData()->hasFormat(kModuleMime)) e->acceptProposedAction();
+  if (e->mimeData()->hasFormat(kModuleMime) || hasLocalFile(e->mimeData())) e->acceptProposedAction();
   else QGraphicsView::dragMoveEvent(e);
 }
 
 void NetworkView::dropEvent(QDropEvent* e) {
+  if (hasLocalFile(e->mimeData()) && !e->mimeData()->hasFormat(kModuleMime)) {
+    e->acceptProposedAction();
+    emit dropFile(e->mimeData()->urls().first().toLocalFile());
+    return;
+  }
   if (!e->mimeData()->hasFormat(kModuleMime)) return QGraphicsView::dropEvent(e);
   const QString name = QString::fromUtf8(e->mimeData()->data(kModuleMime));
   emit dropModule(name, mapToScene(e->position().toPoint()));

@@ -214,6 +214,7 @@ public:
 
 signals:
   void dropModule(const QString& name, QPointF scenePos);
+  void dropFile(const QString& path); // a local file dropped on the canvas (a .srn, a volume)
 
 protected:
   void wheelEvent(QWheelEvent* e) override;

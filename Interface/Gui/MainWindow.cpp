@@ -15,6 +15,7 @@
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QPlainTextEdit>
+#include <QPushButton>
 #include <QSettings>
 #include <QStatusBar>
 #include <QToolBar>
@@ -32,6 +33,7 @@
 #include "Palette.h"
 #include "ParameterPanel.h"
 #include "ReportView.h"
+#include "Algorithms/IO/VolumeIO.h"
 #include "Dataflow/NetworkFile.h"
 
 namespace tetflow::gui {
@@ -67,6 +69,10 @@ MainWindow::MainWindow(const ModuleRegistry& registry, QWidget* parent)
   connect(view_, &NetworkView::dropModule, this, [this](const QString& name, QPointF pos) {
     const std::string id = scene_->addModule(ss(name), pos - QPointF(80, 29));
     selectModule(qs(id));
+  });
+  // A file dropped on the canvas opens like File > Open: a network, or a label volume to mesh.
+  connect(view_, &NetworkView::dropFile, this, [this](const QString& path) {
+    if (maybeSave()) openFile(path);
   });
   connect(undo_, &QUndoStack::cleanChanged, this, [this] { updateTitle(); });
   connect(exec_, &ExecutionController::moduleStatus, this, &MainWindow::onModuleStatus);
@@ -279,11 +285,73 @@ void MainWindow::newNetwork() {
   attachNetwork(std::move(net));
 }
 
+namespace {
+bool isVolumeFile(const QString& path) {
+  for (const auto& ext : volumeExtensions())
+    if (path.endsWith(qs(ext), Qt::CaseInsensitive)) return true;
+  return false;
+}
+} // namespace
+
+bool MainWindow::offerMeshing(const QString& volumePath) {
+  MeshBackground b = MeshBackground::Regular;
+  if (interactive_) {
+    QMessageBox box(QMessageBox::Question, tr("Mesh a label volume"),
+                    tr("%1 is a label volume. Mesh it with the network tetflow mesh uses?")
+                        .arg(QFileInfo(volumePath).fileName()),
+                    QMessageBox::Cancel, this);
+    box.setInformativeText(tr("The sizes follow the voxels; the mesh is written beside the volume. Change any "
+                              "parameter before Execute All, and File > Save keeps the network."));
+    QPushButton* regular = box.addButton(tr("Regular lattice"), QMessageBox::AcceptRole);
+    QPushButton* octree = box.addButton(tr("Adaptive (octree)"), QMessageBox::AcceptRole);
+    QPushButton* particles = box.addButton(tr("Adaptive (particles)"), QMessageBox::AcceptRole);
+    regular->setObjectName("meshRegular");
+    octree->setObjectName("meshOctree");
+    particles->setObjectName("meshParticles");
+    box.setDefaultButton(regular);
+    box.exec();
+    if (box.clickedButton() == octree) b = MeshBackground::Octree;
+    else if (box.clickedButton() == particles) b = MeshBackground::Particles;
+    else if (box.clickedButton() != regular) return false;
+  }
+  return meshVolume(volumePath, b);
+}
+
+bool MainWindow::meshVolume(const QString& volumePath, MeshBackground background) {
+  if (exec_->isRunning()) {
+    log(tr("Cancel the running execution before opening another network"));
+    return false;
+  }
+  const QFileInfo info(volumePath);
+  MeshLabelsOptions o;
+  o.labels = ss(info.absoluteFilePath());
+  o.output = ss(info.absolutePath()) + "/" + defaultMeshFileName(o.labels);
+  o.background = background;
+  std::vector<std::string> lines;
+  std::unique_ptr<Network> net;
+  try {
+    lines = chooseMeshSizes(o, readLabelVolume(o.labels).grid); // the voxel size (read again when run)
+    net = std::make_unique<Network>(buildMeshLabelsNetwork(registry_, o));
+  } catch (const std::exception& e) {
+    log(tr("Cannot mesh %1: %2").arg(volumePath, qs(e.what())));
+    if (interactive_) QMessageBox::critical(this, tr("Cannot mesh the volume"), qs(e.what()));
+    return false;
+  }
+  net->setBaseDir(ss(info.absolutePath()));
+  file_.clear();
+  attachNetwork(std::move(net));
+  log(tr("Meshing network for %1: %2 background").arg(info.absoluteFilePath(), meshBackgroundName(background)));
+  for (const auto& l : lines) log("  " + qs(l));
+  log(tr("  the mesh goes to %1; Execute All runs it, File > Save keeps the network").arg(qs(o.output)));
+  return true;
+}
+
 bool MainWindow::openFile(const QString& path) {
   if (exec_->isRunning()) {
     log(tr("Cancel the running execution before opening another network"));
     return false;
   }
+  if (isVolumeFile(path)) return offerMeshing(path);
   std::unique_ptr<Network> net;
   try {
     net = std::make_unique<Network>(loadNetwork(ss(path), registry_));
@@ -340,7 +408,8 @@ void MainWindow::open() {
   if (!maybeSave()) return;
   const QString path = QFileDialog::getOpenFileName(this, tr("Open network"),
                                                     file_.isEmpty() ? QDir::currentPath() : QFileInfo(file_).absolutePath(),
-                                                    tr("SCIRun networks (*.srn);;All files (*)"));
+                                                    tr("SCIRun networks (*.srn);;Label volumes to mesh (*.nii *.nii.gz "
+                                                       "*.nrrd *.nhdr *.mha *.mhd *.inr *.inr.gz *.vti);;All files (*)"));
   if (!path.isEmpty()) openFile(path);
 }
 

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "Dataflow/Network.h"
+#include "Modules/MeshLabelsNet.h"
 
 class QUndoStack;
 class QPlainTextEdit;
@@ -46,7 +47,15 @@ public:
   bool isModified() const;
 
   // Commands (also used by tests and the command line; no dialogs unless prompts are enabled).
+  // A network (.srn), or a label volume file: then offerMeshing(path).
   bool openFile(const QString& path);
+  // Offers to mesh a label volume with the network `tetflow mesh` builds (Modules/MeshLabelsNet.h):
+  // regular lattice, adaptive octree or particles. Without prompts (tests): the regular lattice.
+  bool offerMeshing(const QString& volumePath);
+  // That network for the volume, with sizes from its voxels, the mesh written beside it; it
+  // replaces the open network, unsaved (File > Save keeps it). False (logged) when the volume
+  // cannot be read.
+  bool meshVolume(const QString& volumePath, MeshBackground background);
   bool saveFile(const QString& path);
   void newNetwork();
   bool executeAll();

@@ -1,7 +1,7 @@
 // Layered head generator (Testing/Fixtures/LayeredHead.h): writes the label volume built from
 // mricron-data's HarvardOxford and JHU atlases (0 air, 1 scalp, 2 skull, 3 CSF, 4 grey, 5 white).
 //
-//   layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--parcels] [--stats]
+//   layered_head OUT.nii.gz [--voxel 1|2|4] [--variant 0|1|2] [--parcels] [--stats]
 //
 // The atlases are read from $TETFLOW_MRICRON_DIR or /usr/share/mricron/templates (Debian package
 // mricron-data, installed by scripts/setup.sh). --stats prints voxel counts, 26-connected
@@ -160,12 +160,12 @@ int main(int argc, char** argv) {
     else if (s == "--parcels") p.parcels = true;
     else if (!s.empty() && s[0] != '-' && outPath.empty()) outPath = s;
     else {
-      std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--parcels] [--stats]\n");
+      std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2|4] [--variant 0|1|2] [--parcels] [--stats]\n");
       return 2;
     }
   }
   if (outPath.empty()) {
-    std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2] [--variant 0|1|2] [--parcels] [--stats]\n");
+    std::fprintf(stderr, "usage: layered_head OUT.nii.gz [--voxel 1|2|4] [--variant 0|1|2] [--parcels] [--stats]\n");
     return 2;
   }
   try {

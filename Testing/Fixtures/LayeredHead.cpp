@@ -214,7 +214,7 @@ bool mricronAtlasesPresent(const std::string& dir, std::string* why) {
 LabelVolume makeLayeredHead(const std::string& dir, const LayeredHeadParams& p, LayeredHeadInfo* info) {
   if (p.variant < 0 || p.variant > 2) throw InputError("layered head: variant must be 0, 1 or 2");
   if (p.parcels && p.voxel != 1) throw InputError("layered head: parcels are made at 1 mm only (voxel 1)");
-  if (p.voxel != 1 && p.voxel != 2) throw InputError("layered head: voxel must be 1 or 2 (mm)");
+  if (p.voxel != 1 && p.voxel != 2 && p.voxel != 4) throw InputError("layered head: voxel must be 1, 2 or 4 (mm)");
   std::string why;
   if (!mricronAtlasesPresent(dir, &why)) throw InputError("layered head: " + why);
   LayeredHeadInfo scratch;
@@ -491,14 +491,15 @@ LabelVolume makeLayeredHead(const std::string& dir, const LayeredHeadParams& p, 
   }
   if (p.voxel == 1) return out;
 
-  // ---- 10. 2 mm: the most frequent label of each 2x2x2 block (ties to the lower label).
+  // ---- 10. 2 or 4 mm: the most frequent label of each 2x2x2 (4x4x4) block (ties to the lower label).
+  const int b = p.voxel;
   GridGeometry g2 = g;
-  for (int a = 0; a < 3; ++a) g2.dims[a] = g.dims[a] / 2, g2.spacing[a] = 2, g2.origin[a] = g.origin[a] + 0.5;
+  for (int a = 0; a < 3; ++a) g2.dims[a] = g.dims[a] / b, g2.spacing[a] = b, g2.origin[a] = g.origin[a] + 0.5 * (b - 1);
   LabelVolume out2;
   out2.allocate(g2, kHeadAir);
   forVoxels(g2.dims, [&](int64_t i, int64_t j, int64_t k, size_t x) {
     int count[6] = {};
-    for (int c = 0; c < 8; ++c) ++count[L[idx(2 * i + (c & 1), 2 * j + (c >> 1 & 1), 2 * k + (c >> 2))]];
+    for (int c = 0; c < b * b * b; ++c) ++count[L[idx(b * i + c % b, b * j + c / b % b, b * k + c / (b * b))]];
     out2.data[x] = int32_t(std::max_element(count, count + 6) - count);
   });
   return out2;

@@ -22,8 +22,8 @@ enum LayeredHeadLabel : int32_t {
 
 struct LayeredHeadParams {
   int variant = 0;                          // 0, 1, 2: seeds the thickness fields and specks
-  int voxel = 1;                            // 1 = 1 mm; 2 = 2 mm (most frequent label of each
-                                            // 2x2x2 block, ties to the lower label)
+  int voxel = 1;                            // 1 = 1 mm; 2 = 2 mm, 4 = 4 mm (most frequent label of each
+                                            // 2x2x2 / 4x4x4 block, ties to the lower label)
   double csfMin = 1.0, csfMax = 3.0;        // outer CSF shell (mm); 1 = one voxel
   double skullMin = 4.0, skullMax = 7.0;    // skull (mm); the temples go towards skullMin
   double scalpMin = 4.0, scalpMax = 7.0;    // scalp (mm)

@@ -375,6 +375,26 @@ private slots:
     }
   }
 
+  void meshLabelsNetsRunInTheNodeEditor() {
+    // The nets that start from a label volume file (issue 30) run in the node editor and show
+    // the head's tissues.
+    MainWindow win(registry_);
+    win.setInteractive(false);
+    win.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&win));
+    const QDir nets(TETFLOW_SOURCE_DIR "/Nets");
+    QTemporaryDir out;
+    for (const char* f : {"mesh_labels.srn", "mesh_labels_adaptive.srn"}) {
+      QVERIFY2(win.openFile(nets.filePath(f)), f);
+      win.network().setOutputDir(out.path().toStdString());
+      QVERIFY(win.executeAll());
+      QVERIFY(win.execution()->waitForFinished(300000));
+      QVERIFY2(win.execution()->lastSummary().success, f);
+      win.selectModule("m3");
+      QCOMPARE(win.meshView()->materialLabels(), std::vector<int>({0, 1, 2, 3, 4, 5}));
+    }
+  }
+
   void rendersLabelVolumeSlices() {
     LabelVolume v;
     GridGeometry g;

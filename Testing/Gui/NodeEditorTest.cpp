@@ -10,7 +10,11 @@
 #include <QMimeData>
 #include <QTreeWidget>
 #include <QFile>
+#include <QFileInfo>
+#include <QMessageBox>
 #include <QPlainTextEdit>
+#include <QPushButton>
+#include <QTimer>
 #include <QRegularExpression>
 #include <QSet>
 #include <QSignalSpy>
@@ -422,6 +426,51 @@ private slots:
     QVERIFY2(tip.contains("running"), qPrintable(tip)); // the whole line is in the tooltip
     QVERIFY(item->statusText().startsWith("done"));
     QVERIFY(!item->toolTip().contains("running"));
+  }
+
+  void openingALabelVolumeOffersToMeshIt() {
+    // A copy of the bundled head: the mesh is written beside the volume.
+    QTemporaryDir dir;
+    const QString volume = dir.filePath("my_head.nii.gz");
+    QVERIFY(QFile::copy(TETFLOW_SOURCE_DIR "/Testing/Data/layered_head_4mm.nii.gz", volume));
+    // Answered "Adaptive (octree)": the octree net, its sizes from the 4 mm voxels.
+    win_->setInteractive(true);
+    bool answered = false;
+    QTimer::singleShot(0, this, [&] {
+      for (QWidget* w : QApplication::topLevelWidgets())
+        if (auto* box = qobject_cast<QMessageBox*>(w))
+          if (auto* b = box->findChild<QPushButton*>("meshOctree")) {
+            b->click();
+            answered = true;
+          }
+    });
+    QVERIFY(win_->openFile(volume));
+    win_->setInteractive(false);
+    QVERIFY(answered);
+    QCOMPARE(net().modules().size(), size_t(6));
+    auto text = [&](const char* id, const char* p) {
+      const ModuleNode* m = net().module(id);
+      return QString::fromStdString(formatParam(*m->info->param(p), m->params.at(p)));
+    };
+    QCOMPARE(text("m1", "filename"), QFileInfo(volume).absoluteFilePath());
+    QCOMPARE(text("m2", "kind"), QString("octree_bcc"));
+    QCOMPARE(text("m6", "min_size"), QString("8"));
+    QCOMPARE(text("m6", "max_size"), QString("64"));
+    QCOMPARE(text("m5", "filename"), QFileInfo(dir.filePath("my_head.vtu")).absoluteFilePath());
+    QVERIFY(scene()->moduleItem("m6") != nullptr);
+    // Without prompts (and as dropped on the canvas): the regular lattice; it runs and writes
+    // the mesh beside the volume.
+    emit win_->view()->dropFile(volume);
+    QCOMPARE(net().modules().size(), size_t(5));
+    QCOMPARE(text("m2", "cell_size"), QString("8"));
+    QVERIFY(win_->executeAll());
+    QVERIFY(win_->execution()->waitForFinished(120000));
+    QVERIFY(win_->execution()->lastSummary().success);
+    QVERIFY(QFileInfo::exists(dir.filePath("my_head.vtu")));
+    // A file that is not a volume it can read: refused by name, the network kept.
+    QVERIFY(!win_->meshVolume(dir.filePath("nothing.nii.gz"), MeshBackground::Regular));
+    QVERIFY(win_->logView()->toPlainText().contains("nothing.nii.gz"));
+    QCOMPARE(net().modules().size(), size_t(5));
   }
 
   void reportParsers() {
