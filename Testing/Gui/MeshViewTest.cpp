@@ -13,6 +13,8 @@
 #include <QTemporaryDir>
 #include <QtTest>
 
+#include <functional>
+
 #include <algorithm>
 #include <cmath>
 
@@ -138,6 +140,26 @@ QImage renderNow(VtkWidget* w) {
 class MeshViewTest : public QObject {
   Q_OBJECT
   ModuleRegistry registry_;
+
+  // Opens each shipped net in a main window, runs it with its outputs in a temporary folder, and
+  // hands the window to `check` after each successful run.
+  void runShippedNets(std::initializer_list<const char*> files,
+                      const std::function<void(MainWindow&, const std::string&)>& check) {
+    MainWindow win(registry_);
+    win.setInteractive(false);
+    win.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&win));
+    const QDir nets(TETFLOW_SOURCE_DIR "/Nets");
+    QTemporaryDir out;
+    for (const char* f : files) {
+      QVERIFY2(win.openFile(nets.filePath(f)), f);
+      win.network().setOutputDir(out.path().toStdString());
+      QVERIFY(win.executeAll());
+      QVERIFY(win.execution()->waitForFinished(300000));
+      QVERIFY2(win.execution()->lastSummary().success, f);
+      check(win, f);
+    }
+  }
 
 private slots:
   void initTestCase() {
@@ -351,48 +373,26 @@ private slots:
   // source models against the analytic series) and the MEG net (Sarvas), each to the end, with the
   // potential shown on the diverging scale.
   void sphereNetsRunInTheNodeEditor() {
-    MainWindow win(registry_);
-    win.setInteractive(false);
-    win.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&win));
-    const QDir nets(TETFLOW_SOURCE_DIR "/Nets");
-    QTemporaryDir out;
-    for (const char* f : {"eeg_sphere_cad.srn", "meg_sphere.srn"}) {
-      QVERIFY2(win.openFile(nets.filePath(f)), f);
-      win.network().setOutputDir(out.path().toStdString());
-      QVERIFY(win.executeAll());
-      QVERIFY(win.execution()->waitForFinished(300000));
-      QVERIFY2(win.execution()->lastSummary().success, f);
+    runShippedNets({"eeg_sphere_cad.srn", "meg_sphere.srn"}, [](MainWindow& win, const std::string& f) {
       win.selectModule("m4");
       win.meshView()->setColorBy("potential");
       QCOMPARE(win.meshView()->colorScale(), MeshView::ColorScale::Diverging);
-      if (std::string(f) == "eeg_sphere_cad.srn") // the figures CadModulesTest checks headless
+      if (f == "eeg_sphere_cad.srn") // the figures CadModulesTest checks headless
         for (const char* an : {"m5", "m7", "m9"}) {
           const ModuleState* st = win.execution()->state(an);
           QVERIFY(st);
           QVERIFY2(st->report.number("rdm") < 0.025, an);
         }
-    }
+    });
   }
 
   void meshLabelsNetsRunInTheNodeEditor() {
     // The nets that start from a label volume file (issue 30) run in the node editor and show
     // the head's tissues.
-    MainWindow win(registry_);
-    win.setInteractive(false);
-    win.show();
-    QVERIFY(QTest::qWaitForWindowExposed(&win));
-    const QDir nets(TETFLOW_SOURCE_DIR "/Nets");
-    QTemporaryDir out;
-    for (const char* f : {"mesh_labels.srn", "mesh_labels_adaptive.srn"}) {
-      QVERIFY2(win.openFile(nets.filePath(f)), f);
-      win.network().setOutputDir(out.path().toStdString());
-      QVERIFY(win.executeAll());
-      QVERIFY(win.execution()->waitForFinished(300000));
-      QVERIFY2(win.execution()->lastSummary().success, f);
+    runShippedNets({"mesh_labels.srn", "mesh_labels_adaptive.srn"}, [](MainWindow& win, const std::string&) {
       win.selectModule("m3");
       QCOMPARE(win.meshView()->materialLabels(), std::vector<int>({0, 1, 2, 3, 4, 5}));
-    }
+    });
   }
 
   void rendersLabelVolumeSlices() {
