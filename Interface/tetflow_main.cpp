@@ -634,7 +634,7 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   auto absolute = [](const std::string& f) { return f.empty() ? f : fs::absolute(f).lexically_normal().string(); };
   MeshLabelsOptions run = o;
   run.labels = absolute(o.labels);
-  run.output = absolute(o.output);
+  if (r.outputDir.empty()) run.output = absolute(o.output); // else a relative -o goes under --output-dir
   run.labelTable = absolute(o.labelTable);
   std::unique_ptr<Network> net;
   try {
