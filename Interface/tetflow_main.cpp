@@ -178,8 +178,10 @@ std::string parseRunArgs(const std::vector<std::string>& a, size_t start, RunArg
   return "";
 }
 
-// Applies --set overrides; returns problems (empty when all applied).
-std::vector<std::string> applySets(Network& net, const std::vector<std::string>& sets) {
+// Applies --set overrides; returns problems (empty when all applied). A relative file name given
+// on the command line means what the shell means by it: relative to the current folder (an
+// output's, with --output-dir, relative to that folder instead, as the net's own outputs).
+std::vector<std::string> applySets(Network& net, const std::vector<std::string>& sets, bool outputDirGiven) {
   std::vector<std::string> problems;
   for (const auto& s : sets) {
     const auto eq = s.find('=');
@@ -188,7 +190,13 @@ std::vector<std::string> applySets(Network& net, const std::vector<std::string>&
       problems.push_back("--set '" + s + "': expected ID.PARAM=VALUE, e.g. m3.alpha_long=0.25");
       continue;
     }
-    const std::string id = s.substr(0, dot), param = s.substr(dot + 1, eq - dot - 1), val = s.substr(eq + 1);
+    const std::string id = s.substr(0, dot), param = s.substr(dot + 1, eq - dot - 1);
+    std::string val = s.substr(eq + 1);
+    if (const ModuleNode* m = net.module(id))
+      if (const ParamSpec* spec = m->info->param(param))
+        if (spec->type == ParamType::String && (spec->isInputPath || (spec->isOutputPath && !outputDirGiven)) &&
+            !val.empty() && std::filesystem::path(val).is_relative())
+          val = std::filesystem::absolute(val).lexically_normal().string();
     try {
       net.setParameterText(id, param, val);
     } catch (const InputError& e) {
@@ -199,14 +207,14 @@ std::vector<std::string> applySets(Network& net, const std::vector<std::string>&
 }
 
 int loadForCli(const std::string& path, const ModuleRegistry& reg, const std::vector<std::string>& sets,
-               std::unique_ptr<Network>& out) {
+               std::unique_ptr<Network>& out, bool outputDirGiven = false) {
   try {
     out = std::make_unique<Network>(loadNetwork(path, reg));
   } catch (const InputError& e) {
     std::cerr << "tetflow: " << e.what() << "\n";
     return kExitLoad;
   }
-  const auto problems = applySets(*out, sets);
+  const auto problems = applySets(*out, sets, outputDirGiven);
   for (const auto& p : problems) std::cerr << "tetflow: " << p << "\n";
   return problems.empty() ? 0 : kExitLoad;
 }
@@ -394,7 +402,7 @@ int runNetwork(Network* net, const RunArgs& args,
 
 int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
   std::unique_ptr<Network> net;
-  if (int rc = loadForCli(args.net, reg, args.sets, net)) return rc;
+  if (int rc = loadForCli(args.net, reg, args.sets, net, !args.outputDir.empty())) return rc;
   return runNetwork(net.get(), args);
 }
 
@@ -668,7 +676,7 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
     if (!r.quiet) std::printf("mesh: network saved to %s (tetflow-gui %s opens it)\n", saveNet.c_str(), saveNet.c_str());
     if (noRun) return 0;
   }
-  if (const auto problems = applySets(*net, r.sets); !problems.empty()) {
+  if (const auto problems = applySets(*net, r.sets, !r.outputDir.empty()); !problems.empty()) {
     for (const auto& p : problems) std::cerr << "tetflow: " << p << "\n";
     return kExitLoad;
   }

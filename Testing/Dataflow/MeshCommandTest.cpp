@@ -78,7 +78,7 @@ TEST(MeshCommand, PrintsTheSizesItChoseAndSaveNetReRunsToTheSameMesh) {
   const std::string net = readText(tmp.file("nets/n.srn"));
   EXPECT_NE(net.find("val=\"{../a.vtu}\""), std::string::npos) << net;
   EXPECT_NE(net.find("layered_head_4mm.nii.gz}"), std::string::npos) << net;
-  const Result again = cli("run " + tmp.file("nets/n.srn") + " --set m5.filename=../b.vtu");
+  const Result again = cli("run " + tmp.file("nets/n.srn") + " --set m5.filename=" + tmp.file("b.vtu"));
   ASSERT_EQ(again.code, 0) << again.out;
   EXPECT_TRUE(readText(tmp.file("a.vtu")) == readText(tmp.file("b.vtu")));
   // The default sizes come from the voxels; --no-run writes the net alone.
@@ -91,6 +91,19 @@ TEST(MeshCommand, PrintsTheSizesItChoseAndSaveNetReRunsToTheSameMesh) {
   EXPECT_NE(d.out.find("mesh: writing layered_head_4mm.vtu"), std::string::npos) << d.out;
   EXPECT_EQ(d.out.find("m1    ReadLabelVolume"), std::string::npos) << d.out;
   EXPECT_TRUE(std::filesystem::exists(tmp.file("d.srn")));
+}
+
+TEST(MeshCommand, TheShippedNetMeshesAVolumeNamedOnTheCommandLine) {
+  // `tetflow run Nets/mesh_labels.srn --set m1.filename=my_head.nii.gz`, in the user's folder:
+  // the names given with --set are the shell's, relative to the current folder.
+  tetflow::test::TempDir tmp;
+  ASSERT_TRUE(std::filesystem::copy_file(head4(), tmp.file("my_head.nii.gz")));
+  const Result r = tetflow::test::runShell("cd " + tmp.path().string() + " && " + TETFLOW_CLI + " run " +
+                                           TETFLOW_SOURCE_DIR + "/Nets/mesh_labels.srn --set m1.filename=my_head.nii.gz" +
+                                           " --set m5.filename=my_head.vtu 2>&1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("file=" + tmp.file("my_head.vtu")), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(tmp.file("my_head.vtu")));
 }
 
 TEST(MeshCommand, BadOptionsAndInputsAreRefusedByName) {
