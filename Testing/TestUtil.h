@@ -3,11 +3,15 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
+#include <vector>
 
 namespace tetflow::test {
 
@@ -34,6 +38,31 @@ public:
 private:
   std::filesystem::path path_;
 };
+
+// The largest magnitude of a vector's entries (0 for an empty one).
+inline double maxAbs(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+
+// The `nth` number (0: the first) given for "key" in a JSON text such as `tetflow run --report`
+// writes; NaN when there is none.
+inline double reportNumber(const std::string& json, const std::string& key, size_t nth = 0) {
+  size_t at = 0;
+  for (size_t i = 0; i <= nth; ++i) {
+    at = json.find("\"" + key + "\": ", at);
+    if (at == std::string::npos) return std::nan("");
+    at += key.size() + 4;
+  }
+  return std::stod(json.substr(at));
+}
+
+// A file's whole content ("" when it cannot be read).
+inline std::string readText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
 
 inline void writeBytes(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);

@@ -4,9 +4,14 @@
 #
 #   scripts/setup.sh            install + build
 #   scripts/setup.sh --run      ... then run the main job on the bundled default input
-#   scripts/setup.sh --test     ... then run the whole test suite (CTest); with CI set (as on CI)
-#                               or TETFLOW_SANITIZER_SUITE=1, then again under ASan + UBSan
+#   scripts/setup.sh --test     ... then run the unit and integration tests (CTest labels, tiers in
+#                               Testing/Tiers.cmake); with CI set (as on CI) or
+#                               TETFLOW_SANITIZER_SUITE=1, then build the test programs under ASan +
+#                               UBSan and run the unit tests and the integration tests labelled memory
+#   scripts/setup.sh --test --all   ... every tier, the studies too (not on CI)
 #   scripts/setup.sh --deps-only [PKG...]   install the missing packages (and PKG...) and stop
+# Further arguments after --test [--all] go to ctest (e.g. -R Cleaver). --test prints the wall time
+# of each phase and the total at the end.
 #
 # Environment: BUILD_DIR (default: build), TETFLOW_JOBS (default: nproc).
 set -euo pipefail
@@ -14,6 +19,26 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$here"
 BUILD_DIR=${BUILD_DIR:-build}
 JOBS=${TETFLOW_JOBS:-$(nproc)}
+
+# Wall time of each phase, printed at the end of --test (also when a phase fails).
+phase_names=()
+phase_seconds=()
+phase_begin=$SECONDS
+phase() { # phase NAME: the time since the last phase ends here, under NAME
+  phase_names+=("$1")
+  phase_seconds+=($((SECONDS - phase_begin)))
+  phase_begin=$SECONDS
+}
+print_phases() {
+  local status=$? i
+  [ ${#phase_names[@]} -gt 0 ] || return 0
+  echo "setup: wall time per phase$([ $status -ne 0 ] && echo " (stopped with status $status)")"
+  for i in "${!phase_names[@]}"; do
+    printf '  %-18s %6d s\n' "${phase_names[$i]}" "${phase_seconds[$i]}"
+  done
+  printf '  %-18s %6d s (%d min %d s)\n' total "$SECONDS" $((SECONDS / 60)) $((SECONDS % 60))
+}
+if [ "${1:-}" = "--test" ]; then trap print_phases EXIT; fi
 
 packages=(
   build-essential cmake pkg-config
@@ -47,11 +72,13 @@ else
 fi
 
 if [ "${1:-}" = "--deps-only" ]; then exit 0; fi
+phase install
 
 if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
   cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release
 fi
 cmake --build "$BUILD_DIR" -j "$JOBS"
+phase "Release build"
 
 case "${1:-}" in
   --run)
@@ -60,35 +87,28 @@ case "${1:-}" in
     ;;
   --test)
     shift
-    (cd "$BUILD_DIR" && ctest --output-on-failure -j "$JOBS" "$@")
-    # On CI (CI set) or when asked, the same suite again under ASan + UBSan (README "Reliability"):
-    # about 25 minutes more on 2 cores, most of it the build (the heaviest studies are left out there). Without PETSc: OpenMPI and PETSc are
-    # not instrumented and keep their allocations until exit, so the PETSc tests run in the normal
-    # suite only (here they say they are skipped).
+    tiers='^(unit|integration)$'
+    if [ "${1:-}" = "--all" ]; then tiers='.'; shift; fi
+    (cd "$BUILD_DIR" && ctest --output-on-failure -j "$JOBS" -L "$tiers" "$@")
+    phase "Release suite"
+    # On CI (CI set) or when asked, again under ASan + UBSan (README "Sanitizers"): only the
+    # programs the tests run (no GUI, benchmarks or tools they do not need), then the unit tests
+    # and the integration tests labelled memory (Testing/Tiers.cmake). Without PETSc: OpenMPI and
+    # PETSc are not instrumented and keep their allocations until exit, so the PETSc tests run in
+    # the Release half only (here they say they are skipped).
     if [ -n "${CI:-}" ] || [ "${TETFLOW_SANITIZER_SUITE:-0}" = 1 ]; then
       ASAN_DIR=${ASAN_BUILD_DIR:-build-asan}
       if [ ! -f "$ASAN_DIR/CMakeCache.txt" ]; then
         cmake -S . -B "$ASAN_DIR" -DTETFLOW_SANITIZE=address,undefined -DCMAKE_BUILD_TYPE=RelWithDebInfo \
           -DTETFLOW_BUILD_GUI=OFF -DTETFLOW_BUILD_BENCHMARKS=OFF -DTETFLOW_WITH_PETSC=OFF
       fi
-      echo "setup: the suite under AddressSanitizer + UndefinedBehaviorSanitizer ($ASAN_DIR)"
-      cmake --build "$ASAN_DIR" -j "$JOBS"
-      cd "$ASAN_DIR"
-      # Left out here, run above in Release: the studies that repeat one pipeline on large meshes
-      # (23-107 s each in Release, two to three times that under ASan). What they run is covered
-      # under ASan by the smaller tests of the same code (random volumes, Nets.default, the
-      # particle and lead-field tests).
-      heavy='^(Nets\.(adaptive_particles|adaptive_head|eeg_leadfield|TheHeadNetsPassTheirCertificatesOnALayeredHead|ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes)'
-      heavy+='|Cli\.TheDefaultNetIsDeterministicAcrossThreadCountsAndRuns|EegForward\.FourShellSphereErrorsFallWithTheLattice'
-      heavy+='|EegForward\.VenantBeatsPartialIntegrationAtHighEccentricity'
-      heavy+='|CliProgress\.OnATerminalALiveLineFollowsTheRunningModuleAndGivesWayToItsSummary' # the other pty tests run the live lines here
-      heavy+='|MeshCommand\.EachBackgroundMeshesTheBundledHeadTheSameFromNiftiAndNrrd' # Nets.mesh_labels* run here
-      heavy+='|Fidelity\.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation'
-      heavy+='|ExtractSurfacesModule\.TheBemHeadNetsSurfacesPassTheirChecksAndMnes' # Nets.bem_head runs its net here
-      heavy+='|CadModulesFixture\.TheSmoothSphereNetMatchesTheAnalyticPotential)$' # Nets.eeg_sphere_cad runs it here
-      exec ctest --output-on-failure -j "$JOBS" -E "$heavy" "$@"
+      echo "setup: the unit and memory tests under AddressSanitizer + UndefinedBehaviorSanitizer ($ASAN_DIR)"
+      cmake --build "$ASAN_DIR" -j "$JOBS" --target tetflow_algorithms_tests tetflow_dataflow_tests tetflow fuzz_corpus
+      phase "sanitizer build"
+      (cd "$ASAN_DIR" && ctest --output-on-failure -j "$JOBS" -L '^(unit|memory)$' "$@")
+      phase "sanitizer suite"
     fi
     ;;
   "") ;;
-  *) echo "setup: unknown option '$1' (use --run or --test)" >&2; exit 2 ;;
+  *) echo "setup: unknown option '$1' (use --run, --test or --test --all)" >&2; exit 2 ;;
 esac

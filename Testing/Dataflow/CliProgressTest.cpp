@@ -157,10 +157,7 @@ const char* kSmallNet = R"(<?xml version="1.0"?>
 </network>
 )";
 
-std::string readText(const std::string& path) {
-  const auto b = tetflow::readFileBytes(path);
-  return std::string(b.begin(), b.end());
-}
+using tetflow::test::readText;
 
 struct JsonEvent {
   std::string event, module, stage, status;

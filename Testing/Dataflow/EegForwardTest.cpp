@@ -114,6 +114,7 @@ const Eigen::MatrixXd& leadField(Executor& exec, const std::string& id) {
 // (radial / tangential); 3 mm RDM 0.013 / 0.018, lnMAG 0.090 / 0.091. Bounds: the measured values
 // plus ~20 %; both errors must fall from 4 mm to 3 mm. (|lnMAG| <= 0.05 at 3 mm, the issue's
 // target, is not met: README "Validation against the four-shell sphere".)
+// A study (Testing/Tiers.cmake): the 4 mm and the 3 mm lattices.
 TEST(EegForward, FourShellSphereErrorsFallWithTheLattice) {
   const auto e4 = sphereErrors(4.0);
   const auto e3 = sphereErrors(3.0);
@@ -130,28 +131,37 @@ TEST(EegForward, FourShellSphereErrorsFallWithTheLattice) {
   }
 }
 
-// Reciprocity: every column of the lead field equals the average-referenced electrode potentials
-// of a direct dipole solve (unit moment along x, y, z at each source), to the solver tolerance.
+// In CI: the 4 mm lattice's bounds.
+TEST(EegForward, FourShellSphereErrorsAtA4mmLatticeStayWithinTheirBounds) {
+  const auto e4 = sphereErrors(4.0);
+  ASSERT_EQ(e4.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i == 0 ? "radial" : "tangential");
+    EXPECT_LE(e4[i].rdm, 0.044);
+    EXPECT_LE(std::abs(e4[i].lnMag), 0.17);
+  }
+}
+
 // The St. Venant source model (source_model venant) against partial integration on a coarse
-// 5 mm lattice refined at the thin layers (GenerateBackgroundMesh's default; blend_sigma 1 as
+// lattice refined at the thin layers (GenerateBackgroundMesh's default; blend_sigma 1 as
 // sphere_validation.sh), a dipole at eccentricity 0.77: Venant's topography error is a fraction
-// of partial integration's, and its magnitude no worse (README "Source models"; measured
-// RDM 0.035 / 0.035 -> 0.008 / 0.007, radial / tangential).
-TEST(EegForward, VenantBeatsPartialIntegrationAtHighEccentricity) {
+// of partial integration's, and its magnitude no worse (README "Source models").
+namespace {
+void expectVenantBeatsPartialIntegration(const std::string& radii, double cell, const std::string& position) {
   ModuleRegistry reg;
   registerStandardModules(reg);
   Network net(reg);
-  addHead(net, "92 86 80 78", 2.0, 5.0);
+  addHead(net, radii, 2.0, cell);
   net.setParameterText("bg", "refine_thin_layers", "separating");
   net.setParameterText("cl", "blend_sigma", "1");
   const std::pair<const char*, const char*> dipoles[] = {{"radial", "0 0 0.01"}, {"tangential", "0.01 0 0"}};
   for (const auto& [name, moment] : dipoles)
     for (const char* model : {"partial_integration", "venant"}) {
       const std::string f = std::string("fem_") + model + "_" + name, a = std::string("an_") + model + "_" + name;
-      addDipole(net, f, "0 0 60", moment);
+      addDipole(net, f, position, moment);
       net.setParameterText(f, "source_model", model);
       net.addModule("AnalyticSphereEEG", a);
-      net.setParameterText(a, "dipole_position", "0 0 60");
+      net.setParameterText(a, "dipole_position", position);
       net.setParameterText(a, "dipole_moment", moment);
       net.connect(f, 0, a, 0);
     }
@@ -161,12 +171,21 @@ TEST(EegForward, VenantBeatsPartialIntegrationAtHighEccentricity) {
     SCOPED_TRACE(name);
     const Report& pi = exec.state(std::string("an_partial_integration_") + name)->report;
     const Report& ve = exec.state(std::string("an_venant_") + name)->report;
-    std::printf("5 mm lattice, %s dipole at z = 60 mm: partial integration RDM %.4f lnMAG %+.4f, Venant RDM %.4f "
-                "lnMAG %+.4f\n",
-                name, pi.number("rdm"), pi.number("ln_mag"), ve.number("rdm"), ve.number("ln_mag"));
+    std::printf("%g mm lattice, head %s, %s dipole at (%s) mm: partial integration RDM %.4f lnMAG %+.4f, Venant RDM "
+                "%.4f lnMAG %+.4f\n",
+                cell, radii.c_str(), name, position.c_str(), pi.number("rdm"), pi.number("ln_mag"), ve.number("rdm"),
+                ve.number("ln_mag"));
     EXPECT_LT(ve.number("rdm"), 0.5 * pi.number("rdm"));
     EXPECT_LT(std::abs(ve.number("ln_mag")), std::abs(pi.number("ln_mag")) + 0.01);
   }
+}
+} // namespace
+
+// The 92 mm head on a 5 mm lattice, the dipole at z = 60 mm (measured RDM 0.035 / 0.035 -> 0.008 /
+// 0.007, radial / tangential). A smaller head on 2 mm voxels is no smaller version of this: its
+// voxel staircase dominates both models' errors (lnMAG +0.4 at brain radius 46 mm).
+TEST(EegForward, VenantBeatsPartialIntegrationAtHighEccentricity) {
+  expectVenantBeatsPartialIntegration("92 86 80 78", 5.0, "0 0 60");
 }
 
 // Reciprocity holds for the St. Venant source model too: ComputeLeadField with source_model venant
@@ -403,15 +422,7 @@ std::string mpirun(int ranks) {
   return "env " + unset + std::string("OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 ") + TETFLOW_MPIRUN +
          " -n " + std::to_string(ranks) + " --oversubscribe --bind-to none " + TETFLOW_CLI;
 }
-double reportNumber(const std::string& json, const std::string& key, size_t nth = 0) {
-  size_t at = 0;
-  for (size_t i = 0; i <= nth; ++i) {
-    at = json.find("\"" + key + "\": ", at);
-    if (at == std::string::npos) return NAN;
-    at += key.size() + 4;
-  }
-  return std::stod(json.substr(at));
-}
+using tetflow::test::reportNumber;
 } // namespace
 
 // `mpirun -n 2 tetflow run NET` with solver_backend = petsc: rank 0 reads, runs and writes; the

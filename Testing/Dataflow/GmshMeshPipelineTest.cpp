@@ -16,12 +16,7 @@ using namespace tetflow;
 
 namespace {
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using tetflow::test::readText;
 
 TEST(GmshMeshPipeline, ReadCheckedAndSolvedOn) {
   ASSERT_EQ(std::system("command -v gmsh > /dev/null 2>&1"), 0)

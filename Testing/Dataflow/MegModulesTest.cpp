@@ -16,7 +16,7 @@
 using namespace tetflow;
 
 namespace {
-const char* kSigma = "1:0.33; 2:0.0042; 3:1.79; 4:0.33";
+const char* kMegSigma = "1:0.33; 2:0.0042; 3:1.79; 4:0.33";
 
 // Small head phantom (radii 20/17/14/12 mm, 1 mm voxels, 3 mm lattice).
 void addSmallHead(Network& net) { test::addHeadPipeline(net, "20 17 14 12", 1.0, 3.0); }
@@ -51,7 +51,7 @@ void addLeadFieldAndDirectSolves(Network& net, const test::TempDir& dir, const s
   test::writeBytes(dir.file("sensors.txt"), sensorCsv());
   addSmallHead(net);
   net.addModule("ComputeMegLeadField", "lf");
-  net.setParameterText("lf", "conductivities", kSigma);
+  net.setParameterText("lf", "conductivities", kMegSigma);
   net.setParameterText("lf", "sensors_file", dir.file("sensors.txt"));
   net.setParameterText("lf", "sources_file", dir.file("src.csv"));
   net.setParameterText("lf", "tolerance", "1e-12");
@@ -66,7 +66,7 @@ void addLeadFieldAndDirectSolves(Network& net, const test::TempDir& dir, const s
       meg << 'b' << s << k;
       const std::string pos = at.str(), id = fem.str(), mid = meg.str();
       net.addModule("AssembleFEMPoisson", id);
-      net.setParameterText(id, "conductivities", kSigma);
+      net.setParameterText(id, "conductivities", kMegSigma);
       net.setParameterText(id, "boundary_condition", "dipole");
       net.setParameterText(id, "dipole_position", pos);
       net.setParameterText(id, "dipole_moment", axes[k]);
@@ -75,7 +75,7 @@ void addLeadFieldAndDirectSolves(Network& net, const test::TempDir& dir, const s
       net.setParameterText(id, "source_model", model);
       net.connect("cl", 0, id, 0);
       net.addModule("ComputeMEG", mid);
-      net.setParameterText(mid, "conductivities", kSigma);
+      net.setParameterText(mid, "conductivities", kMegSigma);
       net.setParameterText(mid, "sensors_file", dir.file("sensors.txt"));
       net.setParameterText(mid, "dipole_position", pos);
       net.setParameterText(mid, "dipole_moment", axes[k]);
@@ -184,7 +184,7 @@ TEST(MegModules, SubtractionPotentialsAreRefusedByName) {
   Network net(reg);
   addSmallHead(net);
   net.addModule("AssembleFEMPoisson", "fem");
-  net.setParameterText("fem", "conductivities", kSigma);
+  net.setParameterText("fem", "conductivities", kMegSigma);
   net.setParameterText("fem", "conductivity_by_name", "false");
   net.setParameterText("fem", "boundary_condition", "dipole");
   net.setParameterText("fem", "dipole_position", "0 0 5");

@@ -15,10 +15,7 @@ using namespace tetflow;
 
 namespace {
 std::string withoutNote(const std::string& xml) { return std::regex_replace(xml, std::regex("<note>\\{[^}]*\\}</note>"), ""); }
-std::string readText(const std::string& path) {
-  const auto b = readFileBytes(path);
-  return std::string(b.begin(), b.end());
-}
+using tetflow::test::readText;
 } // namespace
 
 TEST(MeshLabelsNet, TheShippedNetsAreWhatTetflowMeshBuildsForTheBundledHead) {

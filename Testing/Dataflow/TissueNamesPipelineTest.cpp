@@ -18,11 +18,11 @@ using namespace tetflow;
 
 namespace {
 
-struct Pipeline {
+struct NamedPipeline {
   ModuleRegistry reg;
   Network net{reg};
   Executor exec;
-  explicit Pipeline(const std::string& volume) {
+  explicit NamedPipeline(const std::string& volume) {
     test::registerTestModules(reg);
     net.addModule("ReadLabelVolume", "read");
     net.setParameterText("read", "filename", volume);
@@ -76,7 +76,7 @@ TEST(TissueNamesPipeline, AnItkSnapTableBesideTheSegmentationNamesEverything) {
                                          "    2   255  255  255        1  1  1    \"Skull\"\n"
                                          "    3     0    0  255        1  1  1    \"CSF\"\n"
                                          "    4   200  100  100        1  1  1    \"Gray-Matter\"\n");
-  Pipeline p(volume);
+  NamedPipeline p(volume);
   p.net.setParameterText("fem", "conductivities", "CSF:1.79");
   p.net.addModule("WriteMesh", "msh");
   p.net.setParameterText("msh", "filename", dir.file("head.msh"));
@@ -106,7 +106,7 @@ TEST(TissueNamesPipeline, ACsvTableGivesConductivitiesAndAFreeSurferTableIsFound
   const std::string volume = writeHead(dir, "seg.nrrd");
   test::writeBytes(dir.file("tissues.csv"), "label,name,conductivity\n1,scalp,0.43\n2,skull,0.0042\n3,CSF,1.79\n4,brain,0.33\n");
   {
-    Pipeline p(volume);
+    NamedPipeline p(volume);
     p.net.setParameterText("read", "label_table", dir.file("tissues.csv"));
     p.net.setParameterText("fem", "default_conductivity", "0.5");
     p.run();
@@ -115,7 +115,7 @@ TEST(TissueNamesPipeline, ACsvTableGivesConductivitiesAndAFreeSurferTableIsFound
       EXPECT_EQ(p.text("fem", "material_" + std::to_string(L) + "_conductivity_source"), "label table") << L;
     EXPECT_EQ(p.report("fem").number("material_2_conductivity"), 0.0042);
     // The same numbers as the labels given in the parameter.
-    Pipeline q(volume);
+    NamedPipeline q(volume);
     q.net.setParameterText("read", "find_label_table", "false");
     q.net.setParameterText("fem", "conductivities", "1:0.43; 2:0.0042; 3:1.79; 4:0.33");
     q.run();
@@ -124,7 +124,7 @@ TEST(TissueNamesPipeline, ACsvTableGivesConductivitiesAndAFreeSurferTableIsFound
     EXPECT_EQ(q.report("fem").number("potential_max"), p.report("fem").number("potential_max"));
   }
   test::writeBytes(dir.file("seg_LUT.txt"), "0 Unknown 0 0 0 0\n1 Scalp 1 1 1 0\n2 Bone 2 2 2 0\n3 CSF 3 3 3 0\n4 brain 4 4 4 0\n");
-  Pipeline p(volume);
+  NamedPipeline p(volume);
   p.run();
   EXPECT_EQ(p.text("read", "label_table"), dir.file("seg_LUT.txt"));
   EXPECT_EQ(p.text("read", "label_table_format"), "FreeSurfer");
@@ -132,7 +132,7 @@ TEST(TissueNamesPipeline, ACsvTableGivesConductivitiesAndAFreeSurferTableIsFound
   EXPECT_EQ(p.report("fem").number("material_4_conductivity"), 1.0);
   EXPECT_EQ(p.report("fem").number("material_3_conductivity"), 1.654);
   // A name the mesh does not have is an error naming the tissues it has.
-  Pipeline bad(volume);
+  NamedPipeline bad(volume);
   bad.net.setParameterText("fem", "conductivities", "grey matter:0.3");
   bad.exec.execute(bad.net);
   EXPECT_NE(bad.exec.state("fem")->error.find("no tissue called 'grey matter'; its tissues are Scalp (1), Bone (2), CSF (3), brain (4)"),

@@ -23,6 +23,12 @@ inline void expectValidClosedMesh(const QualityResult& q) {
   EXPECT_EQ(q.unreferencedVertices, 0);
 }
 
+// Swaps two vertices of every tet of negative volume.
+inline void orientPositive(TetMesh& m) {
+  for (size_t t = 0; t < m.numTets(); ++t)
+    if (m.tetVolume(t) < 0) std::swap(m.tets[t][0], m.tets[t][1]);
+}
+
 inline double triangleArea(const Vec3& a, const Vec3& b, const Vec3& c) { return 0.5 * norm(cross(b - a, c - a)); }
 
 // The faces used by one tet only (vertex ids sorted).

@@ -1,7 +1,8 @@
-// A main() for the fuzz targets in a normal (non-fuzzing) build: runs every file of the given
-// files or folders once through LLVMFuzzerTestOneInput, so the seed corpora and every input a
-// fuzzing run found (added to Testing/Fuzz/corpus as regression cases) are part of the ordinary
-// suite. Exit 0 when all ran; a finding aborts the process as it does under libFuzzer.
+// fuzz_corpus TARGET PATH...: the fuzz targets in a normal (non-fuzzing) build, all in one program.
+// Runs every file of the given files or folders once through target TARGET (a reader's format or
+// srn), so the seed corpora and every input a fuzzing run found (added to Testing/Fuzz/corpus as
+// regression cases) are part of the ordinary suite. Exit 0 when all ran, 2 for bad arguments; a
+// finding aborts the process as it does under libFuzzer.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -11,14 +12,20 @@
 #include <string>
 #include <vector>
 
-extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv);
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size);
+#include "Fuzz/FuzzTargets.h"
 
 int main(int argc, char** argv) {
-  LLVMFuzzerInitialize(&argc, &argv);
+  namespace fuzz = tetflow::fuzz;
+  const std::string target = argc > 1 ? argv[1] : "";
+  if (target != "srn" && !fuzz::isReaderFormat(target)) {
+    std::fprintf(stderr, "usage: fuzz_corpus TARGET PATH... (TARGET: srn, nrrd, nifti, metaimage, inr, vti, vtu, "
+                         "vtk, msh or tetgen; got '%s')\n", target.c_str());
+    return 2;
+  }
+  fuzz::initReaders();
   namespace fs = std::filesystem;
   std::vector<fs::path> files;
-  for (int i = 1; i < argc; ++i) {
+  for (int i = 2; i < argc; ++i) {
     const fs::path p = argv[i];
     if (fs::is_directory(p)) {
       for (const auto& e : fs::recursive_directory_iterator(p))
@@ -38,7 +45,11 @@ int main(int argc, char** argv) {
   for (const auto& f : files) {
     std::ifstream in(f, std::ios::binary);
     const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    LLVMFuzzerTestOneInput(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+    const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+    if (target == "srn")
+      fuzz::fuzzSrnInput(data, bytes.size());
+    else
+      fuzz::fuzzReaderInput(target, data, bytes.size());
   }
   std::printf("%zu inputs ran\n", files.size());
   return 0;

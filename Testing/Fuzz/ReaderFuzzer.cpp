@@ -1,8 +1,10 @@
-// libFuzzer target for one file reader, chosen at compile time by TETFLOW_FUZZ_FORMAT (see
-// Testing/CMakeLists.txt): nrrd, nifti, metaimage, inr, vti (volumes, read and converted to labels
-// as ReadLabelVolume does) or vtu, vtk, tetgen, msh (meshes, read as ReadMesh does). A reader may refuse
-// an input only with InputError; any other exception, crash, leak, hang or huge allocation is a
-// finding. For TetGen the input is split at its first NUL byte into the .node and .ele files.
+// The file readers' fuzz target: nrrd, nifti, metaimage, inr, vti (volumes, read and converted to
+// labels as ReadLabelVolume does) or vtu, vtk, tetgen, msh (meshes, read as ReadMesh does). A reader
+// may refuse an input only with InputError; any other exception, crash, leak, hang or huge
+// allocation is a finding. For TetGen the input is split at its first NUL byte into the .node and
+// .ele files. In a fuzzing build TETFLOW_FUZZ_FORMAT picks the reader at compile time and this file
+// defines libFuzzer's entry points; in a normal build fuzz_corpus (CorpusMain.cpp) calls
+// fuzzReaderInput with the format it is given (Testing/CMakeLists.txt).
 #include <cstdint>
 #include <algorithm>
 #include <cstring>
@@ -14,10 +16,7 @@
 #include "Algorithms/IO/MeshIO.h"
 #include "Algorithms/IO/VolumeIO.h"
 #include "Fuzz/FuzzFile.h"
-
-#ifndef TETFLOW_FUZZ_FORMAT
-#error "define TETFLOW_FUZZ_FORMAT"
-#endif
+#include "Fuzz/FuzzTargets.h"
 
 using namespace tetflow;
 
@@ -35,8 +34,7 @@ void readMeshFile(const std::string& path) {
       if (m.tets[t][k] < 0 || size_t(m.tets[t][k]) >= m.numPoints()) std::abort(); // index out of range
 }
 
-void fuzzOne(const uint8_t* data, size_t size) {
-  const std::string f = TETFLOW_FUZZ_FORMAT;
+void fuzzOne(const std::string& f, const uint8_t* data, size_t size) {
   const bool gz = fuzz::gzipped(data, size);
   if (f == "nrrd") return readVolumeFile(fuzz::writeInput("in.nrrd", data, size));
   if (f == "nifti") return readVolumeFile(fuzz::writeInput(gz ? "in.nii.gz" : "in.nii", data, size));
@@ -53,21 +51,37 @@ void fuzzOne(const uint8_t* data, size_t size) {
     fuzz::writeInput("in.ele", data + std::min(size, split + 1), size - std::min(size, split + 1));
     return readMeshFile((fuzz::scratchDir() / "in.ele").string());
   }
-  std::abort(); // unknown format: a build error
+  std::abort(); // unknown format: callers pass one of isReaderFormat's
 }
 
 } // namespace
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
+bool fuzz::isReaderFormat(const std::string& f) {
+  for (const char* known : {"nrrd", "nifti", "metaimage", "inr", "vti", "vtu", "vtk", "msh", "tetgen"})
+    if (f == known) return true;
+  return false;
+}
+
+void fuzz::initReaders() {
   vtkObject::GlobalWarningDisplayOff(); // the readers collect VTK's messages themselves
+}
+
+void fuzz::fuzzReaderInput(const std::string& format, const uint8_t* data, size_t size) {
+  try {
+    fuzzOne(format, data, size);
+  } catch (const InputError&) {
+    // refused with a message: the expected outcome for a damaged file
+  }
+}
+
+#ifdef TETFLOW_FUZZ_FORMAT
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  fuzz::initReaders();
   return 0;
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  try {
-    fuzzOne(data, size);
-  } catch (const InputError&) {
-    // refused with a message: the expected outcome for a damaged file
-  }
+  fuzz::fuzzReaderInput(TETFLOW_FUZZ_FORMAT, data, size);
   return 0;
 }
+#endif

@@ -29,7 +29,7 @@ LabelVolume sheet(int n, int at) {
 }
 
 // A one-voxel shell (label 1, radius r0 <= r < r0 + 1 voxel centres) around a ball (label 2).
-LabelVolume shell(int n, double r0) { return test::nestedBalls(n, r0, r0 + 1); }
+LabelVolume oneVoxelShell(int n, double r0) { return test::nestedBalls(n, r0, r0 + 1); }
 
 } // namespace
 
@@ -98,7 +98,7 @@ TEST(ThinLayers, OneLabelAroundSomePointsMeansNoSegmentBetweenThemMisses) {
   std::uniform_real_distribution<double> u(-2.0, 26.0), step(-3.0, 3.0);
   int uniform = 0, mixed = 0;
   for (int c = 0; c < 6; ++c) {
-    const LabelVolume v = shell(24, 4.0 + c);
+    const LabelVolume v = oneVoxelShell(24, 4.0 + c);
     for (const auto mode : {EdgeTopology::Mode::All, EdgeTopology::Mode::Separating}) {
       const EdgeTopology t(v, mode);
       for (int trial = 0; trial < 400; ++trial) {
@@ -125,7 +125,7 @@ TEST(ThinLayers, OneLabelAroundSomePointsMeansNoSegmentBetweenThemMisses) {
 double contactArea(const TetMesh& m) { return test::contactArea(m, 0, 2); }
 
 TEST(ThinLayers, RefinedLatticeSeesTheShellAndKeepsItsCellsElsewhere) {
-  const LabelVolume v = shell(40, 12.0);
+  const LabelVolume v = oneVoxelShell(40, 12.0);
   const auto vol = std::make_shared<const LabelVolume>(v);
   const LabelMaterials mats(vol, kDefaultBlendSigma);
   NullProgress np;
@@ -179,7 +179,7 @@ TEST(ThinLayers, NothingThinIsTheRegularLatticeItself) {
 }
 
 TEST(ThinLayers, TheOctreeIsRefinedBelowItsMinimumWhereALayerIsThin) {
-  const LabelVolume v = shell(40, 12.0);
+  const LabelVolume v = oneVoxelShell(40, 12.0);
   const EdgeTopology t(v, EdgeTopology::Mode::Separating);
   NullProgress np;
   ScalarVolume sizing;

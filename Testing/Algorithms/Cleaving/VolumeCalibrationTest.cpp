@@ -17,7 +17,7 @@ namespace tetflow {
 namespace {
 
 // Label 1: voxel centres with 9 <= r < 9 + t around a core (2) in 32^3 voxels of 1 mm.
-std::shared_ptr<const LabelVolume> shell(double t) {
+std::shared_ptr<const LabelVolume> calibrationShell(double t) {
   auto v = std::make_shared<LabelVolume>();
   GridGeometry g;
   g.dims = {32, 32, 32};
@@ -32,17 +32,17 @@ std::shared_ptr<const LabelVolume> shell(double t) {
   return v;
 }
 
-struct Outcome {
+struct CalibrationOutcome {
   double worst = 0.0, shellError = 0.0, minDihedral = 0.0;
   VolumeCalibration calibration;
 };
 
-Outcome run(const std::shared_ptr<const LabelVolume>& vol, double cell, int rounds) {
+CalibrationOutcome calibrate(const std::shared_ptr<const LabelVolume>& vol, double cell, int rounds) {
   NullProgress np;
   const LabelMaterials mats(vol, 0.5);
   const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{cell, 0.0}, np);
   const LabelRepairParams rp;
-  Outcome o;
+  CalibrationOutcome o;
   std::unique_ptr<OffsetMaterials> calibrated;
   // The seed's linear interpolation of the cuts: the case calibration was made for (with exact
   // interfaces the shell loses 4 %, not 7.5 %; CleaveMesh corrects volumes instead).
@@ -70,9 +70,9 @@ Outcome run(const std::shared_ptr<const LabelVolume>& vol, double cell, int roun
 }
 
 TEST(VolumeCalibration, AOneVoxelShellOnAFinerLatticeGetsItsVolumeBack) {
-  const auto v = shell(1.0);
-  const Outcome before = run(v, 1.0, 0);
-  const Outcome after = run(v, 1.0, 1);
+  const auto v = calibrationShell(1.0);
+  const CalibrationOutcome before = calibrate(v, 1.0, 0);
+  const CalibrationOutcome after = calibrate(v, 1.0, 1);
   EXPECT_LT(before.shellError, -0.07); // measured -7.5 %
   EXPECT_LT(std::abs(after.shellError), 0.01); // measured +0.2 %
   EXPECT_GT(after.calibration.offsets[1], 0.0);  // the shell's indicator went up
@@ -83,10 +83,10 @@ TEST(VolumeCalibration, AOneVoxelShellOnAFinerLatticeGetsItsVolumeBack) {
 TEST(VolumeCalibration, MoreRoundsNeverMakeTheWorstErrorWorse) {
   // On a lattice as coarse as the shell the response is slow and can be erratic; the best trial is
   // kept.
-  const auto v = shell(1.0);
-  double previous = run(v, 2.0, 0).worst; // measured 35.3 %
+  const auto v = calibrationShell(1.0);
+  double previous = calibrate(v, 2.0, 0).worst; // measured 35.3 %
   for (int rounds = 1; rounds <= 3; ++rounds) {
-    const Outcome o = run(v, 2.0, rounds);
+    const CalibrationOutcome o = calibrate(v, 2.0, rounds);
     EXPECT_LE(o.worst, previous + 1e-12) << rounds << " rounds";
     previous = o.worst;
   }
@@ -96,7 +96,7 @@ TEST(VolumeCalibration, MoreRoundsNeverMakeTheWorstErrorWorse) {
 
 TEST(VolumeCalibration, BadRoundsAreRefused) {
   NullProgress np;
-  const auto v = shell(2.0);
+  const auto v = calibrationShell(2.0);
   const LabelMaterials mats(v, 0.5);
   const BackgroundMesh bg = generateRegularBcc(mats.grid(), BccParams{2.0, 0.0}, np);
   VolumeCalibration c;

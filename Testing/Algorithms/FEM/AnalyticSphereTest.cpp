@@ -9,6 +9,8 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/FEM/AnalyticSphere.h"
+#include "FemTestMeshes.h"
+#include "TestUtil.h"
 
 using namespace tetflow;
 
@@ -16,11 +18,7 @@ namespace {
 
 const SphereShells kHead{{78, 80, 86, 92}, {0.33, 1.79, 0.0042, 0.33}}; // brain CSF skull scalp
 
-Vec3 randomUnit(std::mt19937& rng) {
-  std::normal_distribution<double> n;
-  const Vec3 v{n(rng), n(rng), n(rng)};
-  return (1.0 / norm(v)) * v;
-}
+using tetflow::test::randomUnit;
 
 // Fibonacci points on the unit sphere scaled to radius R.
 std::vector<Vec3> electrodes(int n, double R) {
@@ -43,11 +41,7 @@ double homogeneousSphere(double R, double sigma, const Vec3& r0, const Vec3& m, 
   return (direct + image) / (4.0 * std::numbers::pi * sigma);
 }
 
-double maxAbs(const std::vector<double>& v) {
-  double m = 0;
-  for (double x : v) m = std::max(m, std::abs(x));
-  return m;
-}
+using tetflow::test::maxAbs;
 
 // Independent check of one Legendre degree: the radial equation of a unit point source at radius
 // a, -(sigma r^2 f')' + l(l+1) sigma f = (2l+1)/(4 pi) delta(r - a), f(0) = 0, f'(R) = 0, by

@@ -27,11 +27,7 @@ PoissonParams electrodeParams(int axis, double tol = 1e-12) {
   return p;
 }
 
-double maxAbs(const std::vector<double>& v) {
-  double m = 0;
-  for (double x : v) m = std::max(m, std::abs(x));
-  return m;
-}
+using tetflow::test::maxAbs;
 
 } // namespace
 

@@ -14,6 +14,13 @@
 
 namespace tetflow::test {
 
+// A direction drawn uniformly on the unit sphere.
+inline Vec3 randomUnit(std::mt19937& rng) {
+  std::normal_distribution<double> n;
+  const Vec3 v{n(rng), n(rng), n(rng)};
+  return (1.0 / norm(v)) * v;
+}
+
 struct GridIndex {
   int n[3];
   int32_t operator()(int i, int j, int k) const { return i + (n[0] + 1) * (j + (n[1] + 1) * k); }

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <numbers>
@@ -24,11 +25,7 @@ using tetflow::test::perturbInterior;
 
 namespace {
 
-Vec3 randomUnit(std::mt19937& rng) {
-  std::normal_distribution<double> g;
-  Vec3 v{g(rng), g(rng), g(rng)};
-  return (1.0 / norm(v)) * v;
-}
+using tetflow::test::randomUnit;
 
 double relDiff(const Vec3& a, const Vec3& b) { return norm(a - b) / std::max(norm(b), 1e-300); }
 
@@ -105,7 +102,9 @@ std::vector<MegSensor> helmet(int n, unsigned seed, bool radialOnly) {
     const Vec3 dir{rho * std::cos(phi), rho * std::sin(phi), z};
     const Vec3 t1 = (1.0 / norm(cross(dir, Vec3{0, 0, 1}) + Vec3{1e-9, 0, 0})) * (cross(dir, Vec3{0, 0, 1}) + Vec3{1e-9, 0, 0});
     const Vec3 t2 = cross(dir, t1);
-    const std::string nm = "S" + std::to_string(i);
+    char id[16]; // not "S" + to_string(i): GCC 12's -Wrestrict false positive (its bug 105329)
+    std::snprintf(id, sizeof id, "S%d", i);
+    const std::string nm = id;
     s.push_back(magnetometer(nm + "r", rad * dir, dir));
     if (!radialOnly) {
       s.push_back(magnetometer(nm + "t1", rad * dir, t1));

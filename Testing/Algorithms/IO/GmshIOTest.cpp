@@ -33,24 +33,19 @@ using test::TempDir;
 
 const MeshFormat kVariants[] = {MeshFormat::Gmsh41, MeshFormat::Gmsh22, MeshFormat::Gmsh22Binary};
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using tetflow::test::readText;
 
-int run(const std::string& cmd) { return std::system(cmd.c_str()); }
+int shellStatus(const std::string& cmd) { return std::system(cmd.c_str()); }
 
-bool haveGmsh() { return run("command -v gmsh > /dev/null 2>&1") == 0; }
-bool haveMeshio() { return run("/usr/bin/python3 -c 'import meshio' > /dev/null 2>&1") == 0; }
+bool haveGmsh() { return shellStatus("command -v gmsh > /dev/null 2>&1") == 0; }
+bool haveMeshio() { return shellStatus("/usr/bin/python3 -c 'import meshio' > /dev/null 2>&1") == 0; }
 #define REQUIRE_GMSH() ASSERT_TRUE(haveGmsh()) << "gmsh is missing: scripts/setup.sh installs it (Debian package gmsh)"
 #define REQUIRE_MESHIO() \
   ASSERT_TRUE(haveMeshio()) << "meshio is missing: scripts/setup.sh installs it (Debian package python3-meshio)"
 
 // A random multi-label mesh: the exact mesh of a random Voronoi volume with thin sheets, its
 // vertices jittered, labels shifted so that 0 and negative labels occur, and names for some.
-TetMesh randomMesh(unsigned seed) {
+TetMesh randomLabelledMesh(unsigned seed) {
   std::mt19937 rng(seed);
   const int n = 5 + int(rng() % 4); // voronoiWithSheets needs n >= 5
   LabelVolume v = test::voronoiWithSheets(rng, n);
@@ -90,7 +85,7 @@ void expectSameMesh(const TetMesh& want, const TetMesh& got, bool sameOrder) {
 TEST(GmshIO, EveryVariantRoundTripsRandomMeshes) {
   TempDir dir;
   for (unsigned seed = 1; seed <= 6; ++seed) {
-    const TetMesh m = randomMesh(seed);
+    const TetMesh m = randomLabelledMesh(seed);
     for (MeshFormat f : kVariants) {
       SCOPED_TRACE(std::string(meshFormatName(f)) + " seed " + std::to_string(seed));
       const std::string path = dir.file("r.msh");
@@ -109,7 +104,7 @@ TEST(GmshIO, EveryVariantRoundTripsRandomMeshes) {
 
 TEST(GmshIO, BinaryIsTheSameMeshAsAscii) {
   TempDir dir;
-  const TetMesh m = randomMesh(9);
+  const TetMesh m = randomLabelledMesh(9);
   writeMesh(dir.file("a.msh"), m, MeshFormat::Gmsh22);
   writeMesh(dir.file("b.msh"), m, MeshFormat::Gmsh22Binary);
   const std::string a = readText(dir.file("a.msh")), b = readText(dir.file("b.msh"));
@@ -132,7 +127,7 @@ MeshioView meshioRead(const std::string& path, const std::string& dumpPath) {
   const std::string cmd = "/usr/bin/python3 '" + std::string(TETFLOW_SOURCE_DIR) +
                           "/Testing/Scripts/meshio_dump.py' '" + path + "' > '" + dumpPath + "' 2>&1";
   MeshioView v;
-  if (run(cmd) != 0) {
+  if (shellStatus(cmd) != 0) {
     ADD_FAILURE() << "meshio could not read " << path << ":\n" << readText(dumpPath);
     return v;
   }
@@ -169,7 +164,7 @@ TEST(GmshIO, MeshioReadsWhatWeWrite) {
   REQUIRE_MESHIO();
   TempDir dir;
   for (unsigned seed : {2u, 5u}) {
-    TetMesh m = randomMesh(seed);
+    TetMesh m = randomLabelledMesh(seed);
     // meshio files physical tags, which are the labels for labels >= 1: keep to those here.
     for (int32_t& L : m.materials) L += 2;
     m.materialNames = {{3, "grey matter"}, {4, "CSF"}};
@@ -215,14 +210,14 @@ std::vector<std::pair<int32_t, std::array<Vec3, 4>>> tetsByPosition(const TetMes
 TEST(GmshIO, GmshReadsWhatWeWrite) {
   REQUIRE_GMSH();
   TempDir dir;
-  TetMesh m = randomMesh(4);
+  TetMesh m = randomLabelledMesh(4);
   for (int32_t& L : m.materials) L += 2; // physical tags = labels
   m.materialNames = {{3, "scalp"}};
   for (MeshFormat f : kVariants) {
     SCOPED_TRACE(meshFormatName(f));
     writeMesh(dir.file("in.msh"), m, f);
     const std::string log = dir.file("gmsh.log");
-    ASSERT_EQ(run("gmsh '" + dir.file("in.msh") + "' -0 -bin -format msh41 -o '" + dir.file("out.msh") + "' > '" +
+    ASSERT_EQ(shellStatus("gmsh '" + dir.file("in.msh") + "' -0 -bin -format msh41 -o '" + dir.file("out.msh") + "' > '" +
                   log + "' 2>&1"),
               0)
         << readText(log);
@@ -250,7 +245,7 @@ Mesh.MeshSizeMax = 2;
 void gmshMesh(const TempDir& dir, const std::string& geo, const std::string& options, const std::string& out) {
   test::writeBytes(dir.file("model.geo"), geo);
   const std::string log = dir.file("gmsh.log");
-  ASSERT_EQ(run("gmsh '" + dir.file("model.geo") + "' -3 " + options + " -o '" + out + "' > '" + log + "' 2>&1"), 0)
+  ASSERT_EQ(shellStatus("gmsh '" + dir.file("model.geo") + "' -3 " + options + " -o '" + out + "' > '" + log + "' 2>&1"), 0)
       << readText(log);
 }
 
@@ -370,7 +365,7 @@ TEST(GmshIO, HandWrittenFilesAndTheirMessages) {
 // or read as some valid mesh; nothing else may happen.
 TEST(GmshIO, DamagedFilesAreRefusedCleanly) {
   TempDir dir;
-  const TetMesh m = randomMesh(3);
+  const TetMesh m = randomLabelledMesh(3);
   std::mt19937 rng(17);
   for (MeshFormat f : kVariants) {
     writeMesh(dir.file("good.msh"), m, f);
@@ -398,7 +393,7 @@ TEST(GmshIO, DamagedFilesAreRefusedCleanly) {
 
 TEST(GmshIO, NamesWithQuotesAreStorable) {
   TempDir dir;
-  TetMesh m = randomMesh(2);
+  TetMesh m = randomLabelledMesh(2);
   m.materialNames[1] = "say \"hi\"\nthere";
   writeMesh(dir.file("q.msh"), m, MeshFormat::Gmsh22);
   const TetMesh back = readMesh(dir.file("q.msh"));

@@ -16,6 +16,7 @@
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Algorithms/IO/InrIO.h"
+#include "Fixtures/RawVolumeBytes.h"
 #include "TestUtil.h"
 
 namespace fs = std::filesystem;
@@ -26,31 +27,14 @@ namespace {
 using test::TempDir;
 using test::writeBytes;
 
-const VoxelType kAllTypes[] = {
-    VoxelType::Int8,   VoxelType::UInt8, VoxelType::Int16,  VoxelType::UInt16,  VoxelType::Int32,
-    VoxelType::UInt32, VoxelType::Int64, VoxelType::UInt64, VoxelType::Float32, VoxelType::Float64};
+using test::kAllTypes;
+using test::bytesOf;
+using test::valuesOf;
 
-template <class T>
-std::string bytesOf(const std::vector<T>& values, bool bigEndian) {
-  std::string out(values.size() * sizeof(T), '\0');
-  for (size_t i = 0; i < values.size(); ++i) {
-    unsigned char b[sizeof(T)];
-    std::memcpy(b, &values[i], sizeof(T));
-    if (bigEndian == (std::endian::native == std::endian::little)) std::reverse(b, b + sizeof(T));
-    std::memcpy(out.data() + i * sizeof(T), b, sizeof(T));
-  }
-  return out;
-}
 
-template <class T>
-std::vector<T> valuesOf(const RawVolume& v) {
-  std::vector<T> out(v.bytes.size() / sizeof(T));
-  std::memcpy(out.data(), v.bytes.data(), out.size() * sizeof(T));
-  return out;
-}
 
 // Random bytes are fine here: INR stores the bytes as they are (no text form).
-RawVolume randomVolume(VoxelType t, const GridGeometry& g, uint64_t seed) {
+RawVolume randomRawBytes(VoxelType t, const GridGeometry& g, uint64_t seed) {
   RawVolume v;
   v.grid = g;
   v.type = t;
@@ -69,12 +53,7 @@ std::string inrHeader(const std::string& lines, int blocks = 1) {
   return h + "##}\n";
 }
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using tetflow::test::readText;
 
 // ------------------------------------------------------------------------------------------------
 // Round trips
@@ -89,7 +68,7 @@ TEST(InrIO, RoundTripEveryTypePlainAndGzip) {
   for (VoxelType t : kAllTypes) {
     for (const char* name : {"vol.inr", "vol.inr.gz", "VOL.INR.GZ"}) {
       SCOPED_TRACE(std::string(voxelTypeName(t)) + " " + name);
-      const RawVolume v = randomVolume(t, g, seed++);
+      const RawVolume v = randomRawBytes(t, g, seed++);
       const std::string path = dir.file(name);
       writeInr(path, v);
       const std::string bytes = readText(path);
@@ -108,7 +87,7 @@ TEST(InrIO, WrittenHeaderIsPaddedTo256Bytes) {
   g.dims = {2, 3, 1};
   g.spacing = {0.5, 0.25, 4};
   g.origin = {1, 2, 3};
-  const RawVolume v = randomVolume(VoxelType::Float32, g, 3);
+  const RawVolume v = randomRawBytes(VoxelType::Float32, g, 3);
   writeInr(dir.file("h.inr"), v);
   const std::string f = readText(dir.file("h.inr"));
   ASSERT_EQ(f.size(), 256 + v.bytes.size());
@@ -127,7 +106,7 @@ TEST(InrIO, WriterRefusesRotatedGridsAndLeavesNothingBehind) {
   GridGeometry g;
   g.dims = {2, 2, 2};
   g.direction = {{{-1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
-  const RawVolume v = randomVolume(VoxelType::UInt8, g, 1);
+  const RawVolume v = randomRawBytes(VoxelType::UInt8, g, 1);
   writeBytes(dir.file("keep.inr"), "old");
   EXPECT_THROW_MSG(writeInr(dir.file("keep.inr"), v), InputError, "keep.inr", "rotated or flipped",
                    ".nrrd");

@@ -46,6 +46,7 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "Algorithms/Core/Errors.h"
+#include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
 namespace tetflow {
@@ -58,10 +59,7 @@ namespace fs = std::filesystem;
 // Mesh builders
 // ---------------------------------------------------------------------------------------------
 
-void orientPositive(TetMesh& m) {
-  for (size_t t = 0; t < m.numTets(); ++t)
-    if (m.tetVolume(t) < 0) std::swap(m.tets[t][0], m.tets[t][1]);
-}
+using test::orientPositive;
 
 // Grid of nx*ny*nz cubes of edge h at `origin`, each split into the 6 Kuhn tets around its main
 // diagonal (a conforming tetrahedralisation). Interior vertices are moved by up to
@@ -176,12 +174,7 @@ std::vector<std::string> dirEntries(const fs::path& dir) {
   return names;
 }
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using tetflow::test::readText;
 
 // ---------------------------------------------------------------------------------------------
 // Format selection

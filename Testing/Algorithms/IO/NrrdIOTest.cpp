@@ -17,6 +17,7 @@
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Algorithms/IO/NrrdIO.h"
+#include "Fixtures/RawVolumeBytes.h"
 #include "TestUtil.h"
 
 namespace fs = std::filesystem;
@@ -27,34 +28,16 @@ namespace {
 using test::TempDir;
 using test::writeBytes;
 
-const VoxelType kAllTypes[] = {
-    VoxelType::Int8,   VoxelType::UInt8, VoxelType::Int16,  VoxelType::UInt16,  VoxelType::Int32,
-    VoxelType::UInt32, VoxelType::Int64, VoxelType::UInt64, VoxelType::Float32, VoxelType::Float64};
+using test::kAllTypes;
+using test::bytesOf;
+using test::valuesOf;
 const NrrdEncoding kAllEncodings[] = {NrrdEncoding::Raw, NrrdEncoding::Gzip, NrrdEncoding::Ascii};
 
 const char* encodingName(NrrdEncoding e) {
   return e == NrrdEncoding::Raw ? "raw" : e == NrrdEncoding::Gzip ? "gzip" : "ascii";
 }
 
-// Bytes of `values` in the requested byte order.
-template <class T>
-std::string bytesOf(const std::vector<T>& values, bool bigEndian) {
-  std::string out(values.size() * sizeof(T), '\0');
-  for (size_t i = 0; i < values.size(); ++i) {
-    unsigned char b[sizeof(T)];
-    std::memcpy(b, &values[i], sizeof(T));
-    if (bigEndian == (std::endian::native == std::endian::little)) std::reverse(b, b + sizeof(T));
-    std::memcpy(out.data() + i * sizeof(T), b, sizeof(T));
-  }
-  return out;
-}
 
-template <class T>
-std::vector<T> valuesOf(const RawVolume& v) {
-  std::vector<T> out(v.bytes.size() / sizeof(T));
-  std::memcpy(out.data(), v.bytes.data(), out.size() * sizeof(T));
-  return out;
-}
 
 template <class T>
 void fillRandom(RawVolume& v, std::mt19937_64& rng) {
@@ -143,7 +126,7 @@ std::vector<NamedGrid> testGrids() {
   return out;
 }
 
-void expectSameGeometry(const GridGeometry& want, const GridGeometry& got, bool exact) {
+void expectSameGrid(const GridGeometry& want, const GridGeometry& got, bool exact) {
   EXPECT_EQ(want.dims, got.dims);
   for (int i = 0; i < 3; ++i) {
     if (exact) {
@@ -164,17 +147,12 @@ void expectSameGeometry(const GridGeometry& want, const GridGeometry& got, bool 
 
 void expectSameVolume(const RawVolume& want, const RawVolume& got, bool exactGeometry) {
   EXPECT_EQ(want.type, got.type);
-  expectSameGeometry(want.grid, got.grid, exactGeometry);
+  expectSameGrid(want.grid, got.grid, exactGeometry);
   ASSERT_EQ(want.bytes.size(), got.bytes.size());
   EXPECT_TRUE(want.bytes == got.bytes) << "voxel values differ";
 }
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using tetflow::test::readText;
 
 // ------------------------------------------------------------------------------------------------
 // Round trips

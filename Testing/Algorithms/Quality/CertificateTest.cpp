@@ -28,7 +28,7 @@ using test::firstTet;
 using test::relabelVoxel;
 using test::voxelMesh;
 
-LabelVolume makeVolume(int nx, int ny, int nz, double h = 1.0, int32_t fill = 0) {
+LabelVolume blankVolume(int nx, int ny, int nz, double h = 1.0, int32_t fill = 0) {
   LabelVolume v;
   GridGeometry g;
   g.dims = {nx, ny, nz};
@@ -50,11 +50,11 @@ const LabelCertificate& labelOf(const CertificateResult& r, int32_t L) {
 }
 
 // --- brute force: the rules of Certificate.h by BFS over voxels -----------------------------
-struct Brute {
+struct VoxelRules {
   std::map<int32_t, int> image26, robust, mesh6, split;
 };
 
-Brute bruteForce(const LabelVolume& v) {
+VoxelRules bruteForce(const LabelVolume& v) {
   auto core = [&](int i, int j, int k) { return test::isCoreVoxel(v, i, j, k); };
   auto components = [&](auto member, bool full) { return test::voxelComponents(v, member, full); };
   auto all = [](int, int, int) { return true; };
@@ -70,7 +70,7 @@ Brute bruteForce(const LabelVolume& v) {
   }
   (void)n6;
   (void)ncc;
-  Brute b;
+  VoxelRules b;
   std::set<std::pair<int32_t, int>> seen6;
   for (int64_t x = 0; x < v.grid.voxelCount(); ++x) seen6.insert({v.data[size_t(x)], c6[size_t(x)]});
   for (const auto& [L, c] : seen6) ++b.mesh6[L];
@@ -83,9 +83,9 @@ Brute bruteForce(const LabelVolume& v) {
   return b;
 }
 
-LabelVolume randomVolume(std::mt19937& rng) {
+LabelVolume randomSegmentation(std::mt19937& rng) {
   std::uniform_int_distribution<int> dim(4, 11), lab(1, 4), coin(0, 99);
-  LabelVolume v = makeVolume(dim(rng), dim(rng), dim(rng), 0.5 + 0.25 * (rng() % 4));
+  LabelVolume v = blankVolume(dim(rng), dim(rng), dim(rng), 0.5 + 0.25 * (rng() % 4));
   // Random boxes of random labels over a background of 0, plus salt: components of every kind.
   const int boxes = 2 + int(rng() % 6);
   for (int b = 0; b < boxes; ++b) {
@@ -108,10 +108,10 @@ LabelVolume randomVolume(std::mt19937& rng) {
 TEST(Certificate, ExactVoxelMeshesOfRandomVolumesMatchTheBruteForceRules) {
   std::mt19937 rng(20261124);
   for (int c = 0; c < 40; ++c) {
-    const LabelVolume v = randomVolume(rng);
+    const LabelVolume v = randomSegmentation(rng);
     const TetMesh m = voxelMesh(v);
     const CertificateResult r = certify(m, v);
-    const Brute b = bruteForce(v);
+    const VoxelRules b = bruteForce(v);
     SCOPED_TRACE("case " + std::to_string(c));
     EXPECT_TRUE(r.excludedLabels.empty());
     EXPECT_DOUBLE_EQ(r.agreement, 1.0);
@@ -145,7 +145,7 @@ TEST(Certificate, NonManifoldEdgesAndVerticesAreTheDefinitions) {
   std::mt19937 rng(71);
   int64_t edgesSeen = 0, verticesSeen = 0;
   for (int c = 0; c < 12; ++c) {
-    const LabelVolume v = randomVolume(rng);
+    const LabelVolume v = randomSegmentation(rng);
     const TetMesh m = voxelMesh(v);
     const CertificateResult r = certify(m, v);
     NullProgress np;
@@ -236,7 +236,7 @@ TEST(Certificate, NonManifoldEdgesAndVerticesAreTheDefinitions) {
 }
 
 TEST(Certificate, ContactsAreFaceContactsWithTheirArea) {
-  LabelVolume v = makeVolume(4, 3, 3, 2.0);
+  LabelVolume v = blankVolume(4, 3, 3, 2.0);
   for (int k = 0; k < 3; ++k)
     for (int j = 0; j < 3; ++j) {
       v.at(0, j, k) = 1;
@@ -272,7 +272,7 @@ TEST(Certificate, ContactsAreFaceContactsWithTheirArea) {
 // A component at the box that the mesh lost under another label's tets was not stripped: it is
 // lost (and its contacts still count), where a stripped exterior leaves its voxels outside the mesh.
 TEST(Certificate, ABoxComponentLostUnderOtherTetsIsLostNotStripped) {
-  LabelVolume v = makeVolume(12, 10, 9, 1.5);
+  LabelVolume v = blankVolume(12, 10, 9, 1.5);
   std::fill(v.data.begin(), v.data.end(), 1);
   for (int k = 0; k <= 2; ++k) // label 5 at the box corner (one core voxel, the box does not erode)...
     for (int j = 0; j <= 2; ++j)
@@ -306,7 +306,7 @@ TEST(Certificate, ABoxComponentLostUnderOtherTetsIsLostNotStripped) {
 }
 
 TEST(Certificate, ARelabelledRobustComponentIsLostWithItsSizeAndPlace) {
-  LabelVolume v = makeVolume(12, 10, 9, 1.5);
+  LabelVolume v = blankVolume(12, 10, 9, 1.5);
   // Two 3x3x3 cubes of label 5 (each with one core voxel) in a background of 1.
   std::fill(v.data.begin(), v.data.end(), 1);
   for (int k = 2; k <= 4; ++k)
@@ -346,7 +346,7 @@ TEST(Certificate, ARelabelledRobustComponentIsLostWithItsSizeAndPlace) {
 }
 
 TEST(Certificate, AnIslandIsSpuriousAndABridgeMergesTwoBlobs) {
-  LabelVolume v = makeVolume(13, 7, 7);
+  LabelVolume v = blankVolume(13, 7, 7);
   std::fill(v.data.begin(), v.data.end(), 1);
   // Cubes of label 2 at x 1..3 and 5..7, one voxel of background between them.
   for (int k = 2; k <= 4; ++k)
@@ -401,7 +401,7 @@ TEST(Certificate, AnIslandIsSpuriousAndABridgeMergesTwoBlobs) {
 }
 
 TEST(Certificate, AStrippedOutsideLabelIsExcluded) {
-  LabelVolume v = makeVolume(8, 8, 8);
+  LabelVolume v = blankVolume(8, 8, 8);
   for (int k = 2; k <= 5; ++k)
     for (int j = 2; j <= 5; ++j)
       for (int i = 2; i <= 5; ++i) v.at(i, j, k) = (i < 4) ? 3 : 4;
@@ -428,7 +428,7 @@ TEST(Certificate, AStrippedOutsideLabelIsExcluded) {
 }
 
 TEST(Certificate, LabelsTouchingAlongAnEdgeAreNonManifoldThere) {
-  LabelVolume v = makeVolume(4, 4, 3);
+  LabelVolume v = blankVolume(4, 4, 3);
   v.at(1, 1, 1) = 7;
   v.at(2, 2, 1) = 7; // shares only the edge x = 1.5, y = 1.5 with the first
   const TetMesh m = voxelMesh(v);
@@ -446,7 +446,7 @@ TEST(Certificate, LabelsTouchingAlongAnEdgeAreNonManifoldThere) {
 }
 
 TEST(Certificate, AMeshLabelAbsentFromTheImageIsSpuriousAndBadInputIsRefused) {
-  LabelVolume v = makeVolume(5, 5, 5, 1.0, 2);
+  LabelVolume v = blankVolume(5, 5, 5, 1.0, 2);
   TetMesh m = voxelMesh(v);
   relabelVoxel(v, m, 2, 2, 2, 9);
   const CertificateResult r = certify(m, v);
@@ -466,7 +466,7 @@ TEST(Certificate, AMeshLabelAbsentFromTheImageIsSpuriousAndBadInputIsRefused) {
 
 TEST(Certificate, SameResultOnOneAndTwoThreads) {
   std::mt19937 rng(7);
-  const LabelVolume v = randomVolume(rng);
+  const LabelVolume v = randomSegmentation(rng);
   TetMesh m = voxelMesh(v);
   for (size_t t = 0; t < m.numTets(); t += 13) m.materials[t] = 1 + int32_t(t % 3);
   const int before = omp_get_max_threads();

@@ -20,7 +20,7 @@
 namespace tetflow {
 namespace {
 
-LabelVolume randomVolume(std::mt19937& rng, bool salt) {
+LabelVolume randomLabelVolume(std::mt19937& rng, bool salt) {
   std::uniform_int_distribution<int> dim(1, 12), lab(0, 4), coin(0, 99);
   LabelVolume v;
   GridGeometry g;
@@ -47,19 +47,19 @@ LabelVolume randomVolume(std::mt19937& rng, bool salt) {
   return v;
 }
 
-struct Expected {
+struct ExpectedTopology {
   std::vector<int32_t> comp;
   std::vector<ImageComponent> comps;
   std::map<uint64_t, std::pair<double, PlaceAcc>> contacts;
 };
 
-Expected byVoxels(const LabelVolume& v) {
+ExpectedTopology byVoxels(const LabelVolume& v) {
   const auto& g = v.grid;
   const int nx = int(g.dims[0]), ny = int(g.dims[1]), nz = int(g.dims[2]);
   auto in = [&](int i, int j, int k) { return test::insideVolume(v, i, j, k); };
   auto core = [&](int i, int j, int k) { return test::isCoreVoxel(v, i, j, k); };
   auto bfs = [&](auto member) { return test::voxelComponents(v, member, true); };
-  Expected e;
+  ExpectedTopology e;
   const auto [comp, n] = bfs([](int, int, int) { return true; });
   const auto [cores, nc] = bfs(core);
   e.comp = comp;
@@ -99,9 +99,9 @@ TEST(LabelTopology, TheRunsGiveWhatAVoxelByVoxelAnalysisGives) {
   NullProgress np;
   for (int c = 0; c < 120; ++c) {
     SCOPED_TRACE("case " + std::to_string(c));
-    const LabelVolume v = randomVolume(rng, c % 3 != 0);
+    const LabelVolume v = randomLabelVolume(rng, c % 3 != 0);
     const LabelImageTopology got = analyzeLabelImage(v, np);
-    const Expected want = byVoxels(v);
+    const ExpectedTopology want = byVoxels(v);
     ASSERT_EQ(got.comp, want.comp);
     ASSERT_EQ(got.comps.size(), want.comps.size());
     for (size_t i = 0; i < want.comps.size(); ++i) {

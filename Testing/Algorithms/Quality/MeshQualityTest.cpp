@@ -15,6 +15,7 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/Quality/TetQuality.h"
+#include "Fixtures/MeshChecks.h"
 #include "TestUtil.h"
 
 namespace tetflow {
@@ -22,10 +23,7 @@ namespace {
 
 constexpr double kTol = 1e-12;
 
-void orientPositive(TetMesh& m) {
-  for (size_t t = 0; t < m.numTets(); ++t)
-    if (m.tetVolume(t) < 0) std::swap(m.tets[t][0], m.tets[t][1]);
-}
+using test::orientPositive;
 
 // Unit cube corners, index i + 2j + 4k for corner (i,j,k).
 std::vector<Vec3> cubeCorners(double h = 1.0, Vec3 o = {0, 0, 0}) {
@@ -63,7 +61,7 @@ TetMesh cubeSix() {
 
 // nx*ny*nz cubes of edge h, 6 Kuhn tets each, interior vertices moved by up to perturb*h per
 // axis (perturb <= 0.2 keeps every tet positive: the shortest Kuhn altitude is h/sqrt 2).
-TetMesh kuhnGrid(int nx, int ny, int nz, double h, double perturb, unsigned seed) {
+TetMesh kuhnCubes(int nx, int ny, int nz, double h, double perturb, unsigned seed) {
   TetMesh m;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-perturb * h, perturb * h);
@@ -279,13 +277,13 @@ TEST(MeshQuality, OpenBoundaryEdgeInOneBoundaryFace) {
 
 // ---- brute-force reference for the face analysis --------------------------------------------
 
-struct Brute {
+struct FaceTally {
   int64_t boundary = 0, interior = 0, nonmanifold = 0, folded = 0, duplicates = 0;
   int64_t edges = 0, open = 0, nmEdges = 0, unreferenced = 0;
 };
 
-Brute brute(const TetMesh& m) {
-  Brute b;
+FaceTally brute(const TetMesh& m) {
+  FaceTally b;
   std::map<std::array<int32_t, 3>, std::vector<int>> faces; // sorted face -> side signs
   std::set<std::array<int32_t, 4>> sets;
   std::set<int32_t> used;
@@ -338,7 +336,7 @@ Brute brute(const TetMesh& m) {
 
 void expectMatchesBrute(const TetMesh& m) {
   const auto r = evaluate(m);
-  const Brute b = brute(m);
+  const FaceTally b = brute(m);
   EXPECT_EQ(r.boundaryFaces, b.boundary);
   EXPECT_EQ(r.interiorFaces, b.interior);
   EXPECT_EQ(r.nonmanifoldFaces, b.nonmanifold);
@@ -353,7 +351,7 @@ void expectMatchesBrute(const TetMesh& m) {
 
 // A perturbed grid with random damage: dropped, duplicated, inverted and random extra tets.
 TetMesh damagedGrid(unsigned seed) {
-  TetMesh g = kuhnGrid(4, 3, 3, 1.0, 0.15, seed);
+  TetMesh g = kuhnCubes(4, 3, 3, 1.0, 0.15, seed);
   std::mt19937 rng(seed);
   std::uniform_int_distribution<int> pct(0, 99);
   std::uniform_int_distribution<int32_t> vert(0, static_cast<int32_t>(g.numPoints()) - 1);
@@ -383,7 +381,7 @@ TEST(MeshQuality, FaceAnalysisMatchesBruteForceOnRandomSoups) {
     SCOPED_TRACE(seed);
     expectMatchesBrute(damagedGrid(seed));
   }
-  expectMatchesBrute(kuhnGrid(3, 2, 2, 0.5, 0.1, 7));
+  expectMatchesBrute(kuhnCubes(3, 2, 2, 0.5, 0.1, 7));
 }
 
 TEST(MeshQuality, WideKeysAboveTwoMillionVertices) {
@@ -412,7 +410,7 @@ TEST(MeshQuality, WideKeysAboveTwoMillionVertices) {
 }
 
 TEST(MeshQuality, PerturbedGridStatisticsAreConsistent) {
-  const TetMesh m = kuhnGrid(8, 7, 6, 2.0, 0.15, 42);
+  const TetMesh m = kuhnCubes(8, 7, 6, 2.0, 0.15, 42);
   for (double w : {5.0, 7.0, 0.5, 90.0}) {
     SCOPED_TRACE(w);
     QualityParams p;
@@ -425,7 +423,7 @@ TEST(MeshQuality, PerturbedGridStatisticsAreConsistent) {
     int64_t sum = 0;
     for (int64_t c : r.histogram) sum += c;
     EXPECT_EQ(sum, r.tets);
-    // Brute-force figures from the fields.
+    // FaceTally-force figures from the fields.
     const auto& mn = r.cellFields.at("min_dihedral").values;
     const auto& mx = r.cellFields.at("max_dihedral").values;
     EXPECT_EQ(r.minDihedral, *std::min_element(mn.begin(), mn.end()));
@@ -526,7 +524,7 @@ TEST(MeshQuality, ReportLayout) {
 }
 
 TEST(MeshQuality, StagesAndCancellation) {
-  const TetMesh m = kuhnGrid(4, 4, 4, 1.0, 0.1, 3);
+  const TetMesh m = kuhnCubes(4, 4, 4, 1.0, 0.1, 3);
   NullProgress progress;
   evaluateQuality(m, {}, progress);
   std::vector<std::string> names;
@@ -562,7 +560,7 @@ TEST(MeshQuality, BadInputIsRefused) {
 // Not run by default: timing on a 1.5 million tet grid
 // (--gtest_also_run_disabled_tests --gtest_filter='*Timing*').
 TEST(MeshQuality, DISABLED_TimingOnALargeGrid) {
-  const TetMesh m = kuhnGrid(64, 64, 64, 1.0, 0.15, 5);
+  const TetMesh m = kuhnCubes(64, 64, 64, 1.0, 0.15, 5);
   NullProgress progress;
   const auto r = evaluateQuality(m, {}, progress);
   EXPECT_TRUE(r.valid);

@@ -12,7 +12,7 @@
 namespace tetflow {
 namespace {
 
-constexpr double kTol = 1e-9;
+constexpr double kQualityTol = 1e-9;
 const double kRegularAngle = std::acos(1.0 / 3.0) * 180.0 / std::numbers::pi; // 70.528779...
 
 std::array<Vec3, 4> regularTet() {
@@ -44,17 +44,17 @@ std::vector<double> sortedAngles(const std::array<Vec3, 4>& p) {
 
 TEST(TetQuality, RegularTetIsExact) {
   const auto p = regularTet();
-  for (double a : dihedralAngles(p[0], p[1], p[2], p[3])) EXPECT_NEAR(a, kRegularAngle, kTol);
+  for (double a : dihedralAngles(p[0], p[1], p[2], p[3])) EXPECT_NEAR(a, kRegularAngle, kQualityTol);
   EXPECT_NEAR(kRegularAngle, 70.5287793655, 1e-9);
   const auto m = metricsOf(p);
-  EXPECT_NEAR(m.minDihedral, kRegularAngle, kTol);
-  EXPECT_NEAR(m.maxDihedral, kRegularAngle, kTol);
-  EXPECT_NEAR(m.aspectRatio, std::sqrt(2.0 / 3.0), kTol);
-  EXPECT_NEAR(m.radiusRatio, 1.0, kTol);
+  EXPECT_NEAR(m.minDihedral, kRegularAngle, kQualityTol);
+  EXPECT_NEAR(m.maxDihedral, kRegularAngle, kQualityTol);
+  EXPECT_NEAR(m.aspectRatio, std::sqrt(2.0 / 3.0), kQualityTol);
+  EXPECT_NEAR(m.radiusRatio, 1.0, kQualityTol);
   // Edge 2 sqrt(2): V = edge^3 / (6 sqrt 2) = 8/3 (the cube minus 4 corner tets of 4/3 each).
-  EXPECT_NEAR(m.volume, 8.0 / 3.0, kTol);
+  EXPECT_NEAR(m.volume, 8.0 / 3.0, kQualityTol);
   EXPECT_FALSE(m.zeroVolume);
-  EXPECT_NEAR(longestEdge(p[0], p[1], p[2], p[3]), std::sqrt(8.0), kTol);
+  EXPECT_NEAR(longestEdge(p[0], p[1], p[2], p[3]), std::sqrt(8.0), kQualityTol);
 }
 
 TEST(TetQuality, RightCornerTetIsExact) {
@@ -63,30 +63,30 @@ TEST(TetQuality, RightCornerTetIsExact) {
   // Edges (0,1) (0,2) (0,3) pass through the origin: 90 degrees; the others acos(1/sqrt 3).
   const double other = std::acos(1.0 / std::sqrt(3.0)) * 180.0 / std::numbers::pi;
   EXPECT_NEAR(other, 54.7356103172, 1e-9);
-  for (int e = 0; e < 3; ++e) EXPECT_NEAR(a[e], 90.0, kTol) << e;
-  for (int e = 3; e < 6; ++e) EXPECT_NEAR(a[e], other, kTol) << e;
-  EXPECT_NEAR(tetVolume(p[0], p[1], p[2], p[3]), 1.0 / 6.0, kTol);
-  EXPECT_NEAR(minDihedral(p[0], p[1], p[2], p[3]), other, kTol);
-  EXPECT_NEAR(maxDihedral(p[0], p[1], p[2], p[3]), 90.0, kTol);
+  for (int e = 0; e < 3; ++e) EXPECT_NEAR(a[e], 90.0, kQualityTol) << e;
+  for (int e = 3; e < 6; ++e) EXPECT_NEAR(a[e], other, kQualityTol) << e;
+  EXPECT_NEAR(tetVolume(p[0], p[1], p[2], p[3]), 1.0 / 6.0, kQualityTol);
+  EXPECT_NEAR(minDihedral(p[0], p[1], p[2], p[3]), other, kQualityTol);
+  EXPECT_NEAR(maxDihedral(p[0], p[1], p[2], p[3]), 90.0, kQualityTol);
   // Shortest altitude 1/sqrt 3 (onto the slanted face), longest edge sqrt 2.
-  EXPECT_NEAR(aspectRatio(p[0], p[1], p[2], p[3]), 1.0 / std::sqrt(6.0), kTol);
+  EXPECT_NEAR(aspectRatio(p[0], p[1], p[2], p[3]), 1.0 / std::sqrt(6.0), kQualityTol);
   // r_in = 1/(3+sqrt 3), R = sqrt(3)/2.
-  EXPECT_NEAR(radiusRatio(p[0], p[1], p[2], p[3]), std::sqrt(3.0) - 1.0, kTol);
+  EXPECT_NEAR(radiusRatio(p[0], p[1], p[2], p[3]), std::sqrt(3.0) - 1.0, kQualityTol);
 }
 
 TEST(TetQuality, BccLatticeTetHas60And90Degrees) {
   const auto p = bccTet();
   const auto v = sortedAngles(p);
-  for (int i = 0; i < 4; ++i) EXPECT_NEAR(v[i], 60.0, kTol);
-  for (int i = 4; i < 6; ++i) EXPECT_NEAR(v[i], 90.0, kTol);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(v[i], 60.0, kQualityTol);
+  for (int i = 4; i < 6; ++i) EXPECT_NEAR(v[i], 90.0, kQualityTol);
   // The 90 degree angles sit at the two long edges (centre-centre, corner-corner).
   const auto a = dihedralAngles(p[0], p[1], p[2], p[3]);
-  EXPECT_NEAR(a[0], 90.0, kTol); // edge (0,1): the two cube centres
-  EXPECT_NEAR(a[5], 90.0, kTol); // edge (2,3): the two face corners
+  EXPECT_NEAR(a[0], 90.0, kQualityTol); // edge (0,1): the two cube centres
+  EXPECT_NEAR(a[5], 90.0, kQualityTol); // edge (2,3): the two face corners
   const auto m = metricsOf(p);
-  EXPECT_NEAR(m.volume, 1.0 / 12.0, kTol);
-  EXPECT_NEAR(m.aspectRatio, 1.0 / std::sqrt(2.0), kTol);
-  EXPECT_NEAR(m.radiusRatio, 3.0 / std::sqrt(10.0), kTol);
+  EXPECT_NEAR(m.volume, 1.0 / 12.0, kQualityTol);
+  EXPECT_NEAR(m.aspectRatio, 1.0 / std::sqrt(2.0), kQualityTol);
+  EXPECT_NEAR(m.radiusRatio, 3.0 / std::sqrt(10.0), kQualityTol);
 }
 
 TEST(TetQuality, SliverApproaches0And180) {
@@ -156,11 +156,11 @@ TEST(TetQuality, InvertedTetKeepsShapeMetricsAndNegativeVolume) {
   auto p = regularTet();
   std::swap(p[0], p[1]);
   const auto m = metricsOf(p);
-  EXPECT_NEAR(m.volume, -8.0 / 3.0, kTol);
+  EXPECT_NEAR(m.volume, -8.0 / 3.0, kQualityTol);
   EXPECT_FALSE(m.zeroVolume);
-  EXPECT_NEAR(m.minDihedral, kRegularAngle, kTol);
-  EXPECT_NEAR(m.aspectRatio, std::sqrt(2.0 / 3.0), kTol);
-  EXPECT_NEAR(m.radiusRatio, 1.0, kTol);
+  EXPECT_NEAR(m.minDihedral, kRegularAngle, kQualityTol);
+  EXPECT_NEAR(m.aspectRatio, std::sqrt(2.0 / 3.0), kQualityTol);
+  EXPECT_NEAR(m.radiusRatio, 1.0, kQualityTol);
 }
 
 Mat3 randomRotation(std::mt19937& rng) {

@@ -50,14 +50,14 @@ IndicatorMaterials twoMaterials(const GridGeometry& g, F phi) {
   return IndicatorMaterials(std::move(vs));
 }
 
-SizingFieldResult run(const MaterialSet& m, const SizingFieldParams& p = {}) {
+SizingFieldResult sizingOf(const MaterialSet& m, const SizingFieldParams& p = {}) {
   NullProgress np;
   return computeSizingField(m, p, np);
 }
 
 SizingFieldResult runLabels(const std::shared_ptr<const LabelVolume>& v, const SizingFieldParams& p = {}) {
   LabelMaterials m(v, 1.0);
-  return run(m, p);
+  return sizingOf(m, p);
 }
 
 // Samples of a label volume with a 6-neighbour of another label (the interface samples when the
@@ -282,7 +282,7 @@ TEST(SizingField, SphereFromIndicatorFunctionsAtRandomCentres) {
     const double R = rad(rng);
     const Vec3 c{16 + off(rng), 16 + off(rng), 16 + off(rng)};
     const IndicatorMaterials m = twoMaterials(g, [&](const Vec3& p) { return R - norm(p - c); });
-    const SizingFieldResult r = run(m);
+    const SizingFieldResult r = sizingOf(m);
     SCOPED_TRACE(R);
     EXPECT_GE(r.medialSamples, 1);
     EXPECT_NEAR(r.minFeatureSize, R, 2.0);
@@ -317,14 +317,14 @@ TEST(SizingField, LayersOneSampleThickGetHalfASample) {
   GridGeometry g;
   g.dims = {8, 8, 20};
   const IndicatorMaterials m = twoMaterials(g, [](const Vec3& p) { return 0.5 - std::abs(p[2] - 10.0); });
-  const SizingFieldResult coarse = run(m);
+  const SizingFieldResult coarse = sizingOf(m);
   EXPECT_EQ(coarse.interfaceSamples, 3 * 64);
   EXPECT_EQ(coarse.medialSamples, 64); // the layer itself
   EXPECT_NEAR(coarse.minFeatureSize, 0.5, 1e-3);
   EXPECT_NEAR(coarse.maxFeatureSize, 0.5, 1e-3);
   SizingFieldParams p;
   p.sampling_rate = 2.0;
-  const SizingFieldResult fine = run(m, p);
+  const SizingFieldResult fine = sizingOf(m, p);
   EXPECT_EQ(fine.field.grid.dims, (std::array<int64_t, 3>{16, 16, 40}));
   EXPECT_EQ(fine.interfaceSamples, 4 * 256);
   EXPECT_GT(fine.medialSamples, 0);
@@ -333,7 +333,7 @@ TEST(SizingField, LayersOneSampleThickGetHalfASample) {
   // A layer two samples thick is left to the divergence test (no sample has other materials on
   // both sides): still half its thickness.
   const IndicatorMaterials two = twoMaterials(g, [](const Vec3& p) { return 1.0 - std::abs(p[2] - 10.5); });
-  const SizingFieldResult r2 = run(two);
+  const SizingFieldResult r2 = sizingOf(two);
   EXPECT_NEAR(r2.minFeatureSize, 1.0, 0.02);
   EXPECT_NEAR(r2.maxFeatureSize, 1.0, 0.02);
 }
@@ -347,7 +347,7 @@ TEST(SizingField, GapBetweenTwoSpheresSetsTheFeatureSize) {
   const IndicatorMaterials m = twoMaterials(g, [&](const Vec3& p) {
     return std::max(6.0 - norm(p - c1), 6.0 - norm(p - c2));
   });
-  const SizingFieldResult r = run(m);
+  const SizingFieldResult r = sizingOf(m);
   EXPECT_NEAR(r.minFeatureSize, 2.0, 0.5);
   EXPECT_NEAR(r.maxFeatureSize, 6.0, 1.0);
 }
@@ -392,7 +392,7 @@ TEST(SizingField, DiscreteLipschitzHoldsBetweenAllNeighbours) {
     SizingFieldParams p;
     p.lipschitz = trial % 2 ? 0.2 : 0.7;
     p.sampling_rate = trial < 2 ? 1.0 : 1.5;
-    const SizingFieldResult r = run(m, p);
+    const SizingFieldResult r = sizingOf(m, p);
     SCOPED_TRACE(trial);
     EXPECT_GT(r.interfaceSamples, 0);
     EXPECT_LE(worstLipschitzViolation(r.field, p.lipschitz), 1e-6);
@@ -506,7 +506,7 @@ TEST(SizingField, AnisotropicSpacingIsMeasuredInMillimetres) {
   g.spacing = {1.0, 1.0, 1.5};
   const Vec3 c{14.3, 13.8, 14.1};
   const IndicatorMaterials m = twoMaterials(g, [&](const Vec3& p) { return 7.0 - norm(p - c); });
-  const SizingFieldResult rs = run(m);
+  const SizingFieldResult rs = sizingOf(m);
   EXPECT_NEAR(rs.minFeatureSize, 7.0, 2.0 * 1.5);
   EXPECT_NEAR(rs.maxFeatureSize, 7.0, 1.5);
   EXPECT_LE(worstLipschitzViolation(rs.field, 0.2), 1e-6);
@@ -521,7 +521,7 @@ TEST(SizingField, OneSliceVolumesAreTwoDimensional) {
   for (int trial = 0; trial < 4; ++trial) {
     const Vec3 c{14.5 + off(rng), 14.5 + off(rng), 0.0};
     const IndicatorMaterials m = twoMaterials(g, [&](const Vec3& p) { return 7.0 - norm(p - c); });
-    const SizingFieldResult r = run(m);
+    const SizingFieldResult r = sizingOf(m);
     SCOPED_TRACE(trial);
     EXPECT_GE(r.medialSamples, 1);
     EXPECT_NEAR(r.minFeatureSize, 7.0, 1.5);
@@ -572,7 +572,7 @@ TEST(SizingField, FlatInterfacesHaveNoMedialSamples) {
     nrm = (1.0 / norm(nrm)) * nrm;
     const double c = off(rng);
     const IndicatorMaterials m = twoMaterials(g, [&](const Vec3& p) { return dot(nrm, p - Vec3{9.5, 9.5, 9.5}) + c; });
-    const SizingFieldResult r = run(m);
+    const SizingFieldResult r = sizingOf(m);
     SCOPED_TRACE(trial);
     EXPECT_GT(r.interfaceSamples, 300);
     EXPECT_EQ(r.medialSamples, 0);
@@ -586,7 +586,7 @@ TEST(SizingField, CleaverSpheresIndicatorFunctions) {
     vols.push_back(readScalarVolume(std::string(TETFLOW_TEST_DATA) + "/spheres" + std::to_string(i) + ".nrrd"));
   const IndicatorMaterials m(std::move(vols));
   SizingFieldParams p;
-  const SizingFieldResult r = run(m, p);
+  const SizingFieldResult r = sizingOf(m, p);
   EXPECT_EQ(r.field.grid, m.grid());
   EXPECT_EQ(r.materialsPresent, 4);
   EXPECT_GT(r.interfaceSamples, 0);
@@ -689,7 +689,7 @@ TEST(SizingField, OneSampleBumpsAreNotThinLayersButThinTubesAre) {
   const IndicatorMaterials tube = twoMaterials(g, [](const Vec3& p) {
     return 0.5 - std::max(std::abs(p[1] - 6.0), std::abs(p[2] - 6.0));
   });
-  const SizingFieldResult rt = run(tube);
+  const SizingFieldResult rt = sizingOf(tube);
   EXPECT_GE(rt.medialSamples, 14);
   EXPECT_NEAR(rt.minFeatureSize, 0.5, 1e-3);
 }

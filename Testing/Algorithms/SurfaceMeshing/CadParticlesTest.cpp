@@ -25,7 +25,7 @@ PsysParams testParams(double maxSize) {
 
 // Nearest-neighbour distance / σ of each patch particle among the particles of its patch and
 // its boundary (brute force).
-std::vector<double> spacingRatios(const CadModel& m, const CadSample& s) {
+std::vector<double> sampleSpacingRatios(const CadModel& m, const CadSample& s) {
   std::vector<double> out;
   for (size_t p = 0; p < s.onPatch.size(); ++p) {
     std::vector<int> pool(s.onPatch[p].begin(), s.onPatch[p].end());
@@ -100,7 +100,7 @@ TEST(CadParticles, ParticlesLieOnTheirCellsAndMeetTheSizingConstraints) {
         EXPECT_GE(q.sigma, st.minSize * (1 - 1e-12));
       }
     // Spacing close to the hexagonal packing's 0.577 σ.
-    const double med = median(spacingRatios(*m, s));
+    const double med = median(sampleSpacingRatios(*m, s));
     EXPECT_GT(med, 0.40);
     EXPECT_LT(med, 0.80);
     // Lipschitz: |σ_i − σ_j| ≤ L r (+10 % for the iteration's lag) for 95 % of the neighbours.
