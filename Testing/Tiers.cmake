@@ -55,4 +55,34 @@ set(TETFLOW_INTEGRATION_TESTS
 set(TETFLOW_RELEASE_ONLY_TESTS
   # Qt and VTK rendering: not built in the sanitizer half
   Gui.*
+  # timing of a terminal's live line (55 s under ASan); the progress events themselves run under
+  # the sanitizers in CliProgress.JsonlEventsComeInOrderWithEachStageRisingToOne
+  CliProgress.OnATerminalALiveLineFollowsTheRunningModuleAndGivesWayToItsSummary
+  # the same meshing code on larger inputs or more often; under the sanitizers it runs in
+  # Nets.default, Nets.mesh_labels_adaptive, Nets.spheres, Fidelity.RandomSegmentations*,
+  # CleaveMeshModule.* and Particles.*
+  Nets.adaptive_particles
+  Nets.adaptive_head
+  Nets.mesh_labels
+  Nets.ANetOfDefaultModulesIsAsFaithfulAsTheShippedOnes
+  Nets.TheHeadNetsPassTheirCertificatesOnTheBundled4mmHead
+  Cli.ASmallerDefaultNetIsDeterministicAcrossThreadCountsAndRuns
+  MeshCommand.EachBackgroundMeshesTheBundledHeadAndNiftiAndNrrdGiveOneMesh
+  MeshCommand.PrintsTheSizesItChoseAndSaveNetReRunsToTheSameMesh
+  Fidelity.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation
+  Fidelity.CullingTheExteriorLeavesTheMeshAsItWas
+  # surfaces of larger heads, and MNE's checks of them (a Python peer); the surface code runs
+  # under the sanitizers in ExtractSurfacesModule.TheHeadPhantomsBemSurfaces* and
+  # ExtractSurfacesModule.WithoutRepairThePinchedPhantomIsRefused
+  Nets.bem_head
+  ExtractSurfacesModule.ASmallerHeadsBemSurfacesPassTheirChecksAndMnes
+  # forward accuracy on finer meshes (numerics, not memory); the assembly, the solvers and every
+  # source model run under the sanitizers in EegForward.*LeadFieldEqualsDirect*Solves,
+  # MegModules.* and Nets.head_dipole
+  EegForward.VenantBeatsPartialIntegrationAtHighEccentricity
+  EegForward.FourShellSphereErrorsAtA4mmLatticeStayWithinTheirBounds
+  Nets.eeg_leadfield
+  Nets.meg_sphere
+  # the smooth-sphere CAD net, which Nets.eeg_sphere_cad runs under the sanitizers
+  CadModulesFixture.TheSmoothSphereNetMatchesTheAnalyticPotential
 )
