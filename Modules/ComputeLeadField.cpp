@@ -55,6 +55,7 @@ public:
     rep.set("iterations_max", i64(r.iterationsMax));
     rep.set("converged", ReportValue(r.converged));
     rep.set("assemble_seconds", ReportValue(r.assembleSeconds));
+    rep.set("setup_seconds", ReportValue(r.setupSeconds));
     rep.set("solve_seconds", ReportValue(r.solveSeconds));
     rep.set("matrix_seconds", ReportValue(r.matrixSeconds));
     {

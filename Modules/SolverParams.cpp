@@ -9,8 +9,10 @@ namespace tetflow {
 std::vector<ParamSpec> solverParamSpecs() {
   const SolverParams d;
   ParamSpec solver = makeParam("solver", ParamType::Enum, std::string("minres"), "",
-                               "minres (Paige-Saunders) or cg");
-  solver.choices = {"minres", "cg"};
+                               "minres (Paige-Saunders), cg, or cholesky (sparse Cholesky factorisation, "
+                               "CHOLMOD: factorised once, then two triangular solves per right-hand side; "
+                               "solver_backend eigen)");
+  solver.choices = {"minres", "cg", "cholesky"};
   ParamSpec prec = makeParam("preconditioner", ParamType::Enum, std::string("jacobi"), "",
                              "jacobi (M = diag(K)), none, or with solver_backend petsc: gamg "
                              "(PETSc's algebraic multigrid) or hypre (BoomerAMG)");

@@ -45,7 +45,7 @@ packages=(
   qt6-base-dev libqt6opengl6-dev
   libvtk9-dev libeigen3-dev libboost-dev libboost-program-options-dev
   libtet1.5-dev libgtest-dev libspectra-dev zlib1g-dev libpugixml-dev
-  libpetsc-real-dev openmpi-bin
+  libpetsc-real-dev openmpi-bin libsuitesparse-dev libopenblas0-pthread
   libocct-foundation-dev libocct-modeling-data-dev libocct-modeling-algorithms-dev
   libocct-data-exchange-dev libocct-ocaf-dev libocct-visualization-dev
   xvfb xauth libgl1-mesa-dri fonts-dejavu-core mricron-data

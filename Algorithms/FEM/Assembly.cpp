@@ -1,4 +1,5 @@
 #include "Assembly.h"
+#include "TetLocator.h"
 
 #include <omp.h>
 
@@ -325,40 +326,11 @@ Eigen::VectorXd assembleLoad(const TetMesh& mesh, const std::vector<double>& fv)
 std::optional<PointLocation> locatePoint(const TetMesh& mesh, const Vec3& p) {
   const int64_t nt = static_cast<int64_t>(mesh.numTets());
   int64_t best = std::numeric_limits<int64_t>::max();
-  constexpr double kEps = 1e-10;
 #pragma omp parallel for schedule(static) reduction(min : best)
-  for (int64_t t = 0; t < nt; ++t) {
-    const auto& q = mesh.tets[size_t(t)];
-    // Quick bounding-box rejection.
-    bool out = false;
-    for (int c = 0; c < 3 && !out; ++c) {
-      double lo = mesh.points[q[0]][c], hi = lo;
-      for (int i = 1; i < 4; ++i) {
-        lo = std::min(lo, mesh.points[q[i]][c]);
-        hi = std::max(hi, mesh.points[q[i]][c]);
-      }
-      const double pad = 1e-9 * (hi - lo);
-      out = p[c] < lo - pad || p[c] > hi + pad;
-    }
-    if (out) continue;
-    const TetGradients g = tetGradients(mesh, size_t(t));
-    if (!(g.volume > 0)) continue;
-    const Vec3 d = p - mesh.points[q[0]];
-    double l[4];
-    l[1] = dot(g.grad[1], d);
-    l[2] = dot(g.grad[2], d);
-    l[3] = dot(g.grad[3], d);
-    l[0] = 1.0 - l[1] - l[2] - l[3];
-    if (l[0] >= -kEps && l[1] >= -kEps && l[2] >= -kEps && l[3] >= -kEps) best = std::min(best, t);
-  }
+  for (int64_t t = 0; t < nt; ++t)
+    if (tetContainsPoint(mesh, t, p)) best = std::min(best, t);
   if (best == std::numeric_limits<int64_t>::max()) return std::nullopt;
-  PointLocation loc;
-  loc.tet = best;
-  const TetGradients g = tetGradients(mesh, size_t(best));
-  const Vec3 d = p - mesh.points[mesh.tets[size_t(best)][0]];
-  for (int a = 1; a < 4; ++a) loc.bary[size_t(a)] = dot(g.grad[size_t(a)], d);
-  loc.bary[0] = 1.0 - loc.bary[1] - loc.bary[2] - loc.bary[3];
-  return loc;
+  return pointLocationIn(mesh, best, p);
 }
 
 namespace {

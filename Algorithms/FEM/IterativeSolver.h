@@ -6,6 +6,12 @@
 //           recurrences of their minres.m: Lanczos on M^-1 K, QR of the tridiagonal by Givens
 //           rotations, x updated by a three-term recurrence.
 //   CG      preconditioned conjugate gradients (Hestenes & Stiefel).
+//   Cholesky  not iterative: the sparse Cholesky factorisation of K (SparseCholesky.h, CHOLMOD),
+//           computed at the first solve (or setUp()) and kept for every later one with the same
+//           operator; a solve is two triangular solves. iterations() is 0, the status Converged
+//           (or an InputError when K is not positive definite), relativeResidual() and
+//           trueResidual() are both ||b - K x||_2 / ||b||_2; the preconditioner, tolerance and
+//           max_iterations do not apply. solveBlock() solves many right-hand sides in one pass.
 // Preconditioner M = diag(K) (Jacobi) or M = I (none). x0 = 0. With SolverParams::backend = Petsc
 // the same solvers run in PETSc on every MPI rank (Petsc/PetscLinearSolver.h), with PETSc's AMG
 // preconditioners as further choices.
@@ -45,8 +51,9 @@
 namespace tetflow {
 
 class PetscLinearSolver;
+class SparseCholesky;
 
-enum class SolverKind : int { Minres = 0, Cg = 1 };
+enum class SolverKind : int { Minres = 0, Cg = 1, Cholesky = 2 };
 const char* solverKindName(SolverKind k);
 SolverKind solverKindFromName(const std::string& name); // InputError listing the names
 
@@ -104,6 +111,7 @@ public:
   void setOperator(const SparseMatrix& K) {
     K_ = &K;
     petsc_.reset(); // a new operator (even at the same address) is distributed again
+    cholesky_.reset(); // ... or factorised again
   }
   void setMonitor(Monitor m) { monitor_ = std::move(m); }
   void setProgress(Progress* p) { progress_ = p; }
@@ -113,6 +121,16 @@ public:
   // operator and params: a lead field's many right-hand sides pay for the set-up once. InputError for a missing/non-square operator, a size
   // mismatch, bad params, or a non-positive diagonal with Jacobi.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+  // Cholesky: factorises K now (if not yet) and returns the seconds it took (0 when it was
+  // already factorised); the other kinds set nothing up here and return 0. Cancellable; refused
+  // before it allocates when the factor would not fit (SparseCholesky.h).
+  double setUp();
+  // Cholesky only: X = K^-1 B for every column of B at once (the queries then describe the
+  // worst column). InputError for the iterative kinds.
+  void solveBlock(const Eigen::MatrixXd& B, Eigen::MatrixXd& X);
+  bool direct() const { return params_.kind == SolverKind::Cholesky; }
+  // Cholesky, after setUp(): the factor (nullptr before).
+  const SparseCholesky* cholesky() const { return cholesky_.get(); }
 
   // --- query ---
   SolverStatus status() const { return status_; }
@@ -131,10 +149,12 @@ private:
   bool step(int64_t k, double relres); // records history, calls monitor/progress; true = stop
 
   void solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+  void checkOperator(Eigen::Index rhsRows) const;
 
   SolverParams params_;
   const SparseMatrix* K_ = nullptr;
   std::shared_ptr<PetscLinearSolver> petsc_; // Petsc: the distributed system, reused
+  std::shared_ptr<SparseCholesky> cholesky_; // Cholesky: the factor, reused
   Monitor monitor_;
   Progress* progress_ = nullptr;
 

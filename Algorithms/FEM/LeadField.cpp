@@ -9,8 +9,11 @@
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/Timing.h"
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/FEM/SourceModels.h"
+#include "Algorithms/FEM/SparseCholesky.h"
+#include "Algorithms/FEM/TetLocator.h"
 #include "Algorithms/FEM/Subtraction.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Assembly.h"
@@ -19,15 +22,18 @@
 namespace tetflow {
 
 namespace {
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 std::string vecText(const Vec3& p) {
   std::ostringstream s;
   s << "(" << p[0] << ", " << p[1] << ", " << p[2] << ")";
   return s.str();
 }
 } // namespace
+
+size_t transferBlockSize(int64_t dofs) {
+  const double perColumn = SparseCholesky::solveBytes(dofs, 1) + 8.0 * double(dofs); // and the expanded u
+  const double fits = 0.05 * double(memoryAvailable()) / std::max(1.0, perColumn);
+  return size_t(std::clamp(fits, 1.0, 16.0));
+}
 
 void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
                       std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress) {
@@ -50,8 +56,9 @@ void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, c
         sourceTets.push_back(int64_t(t));
       }
   } else {
+    const TetLocator locator(mesh);
     for (size_t i = 0; i < points.size(); ++i) {
-      const auto loc = locatePoint(mesh, points[i]);
+      const auto loc = locator.locate(points[i]);
       if (!loc)
         throw InputError("sources: point " + std::to_string(i + 1) + " at " + vecText(points[i]) +
                          " mm lies outside the mesh");
@@ -76,6 +83,7 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   const size_t ne = params.electrodes.size(), np = mesh.numPoints();
 
   // --- sources ---
+  progress.beginStage("sources");
   leadFieldSources(mesh, params.sourceLabels, params.sourcePoints, res.sources, res.sourceTets, progress);
   const size_t ns = res.sources.size();
   {
@@ -92,6 +100,8 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
                     return f.str();
                   });
   }
+
+  progress.endStage();
 
   // --- assemble ---
   auto t0 = std::chrono::steady_clock::now();
@@ -155,41 +165,71 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   res.nnz = sys.K.nonZeros();
   progress.endStage();
 
-  // --- one solve per electrode ---
-  t0 = std::chrono::steady_clock::now();
-  progress.beginStage("solve");
-  res.matrix = Eigen::MatrixXd::Zero(Eigen::Index(ne), Eigen::Index(3 * ns));
+  // --- one solve per electrode (a direct solver: the factorisation, then blocks of them) ---
   IterativeSolver solver(params.solver);
   solver.setOperator(sys.K);
   NullProgress quiet; // the solver's own fraction would hide the per-electrode one
   solver.setProgress(&quiet);
-  Eigen::VectorXd x;
+  if (solver.direct()) {
+    t0 = std::chrono::steady_clock::now();
+    progress.beginStage("factorize");
+    solver.setProgress(&progress); // cancellable while it factorises
+    solver.setUp();
+    solver.setProgress(&quiet);
+    const SparseCholesky& f = *solver.cholesky();
+    std::ostringstream m;
+    m << "cholesky: " << f.ordering() << " ordering, " << f.factorNonzeros() << " nonzeros in L ("
+      << formatBytes(f.factorBytes()) << "), " << f.flops() << " flops, " << f.factorizeSeconds() << " s";
+    res.notes.push_back(m.str());
+    progress.endStage();
+    res.setupSeconds = secondsSince(t0);
+  }
+  t0 = std::chrono::steady_clock::now();
+  progress.beginStage("solve");
+  res.matrix = Eigen::MatrixXd::Zero(Eigen::Index(ne), Eigen::Index(3 * ns));
   const bool subtraction = params.sourceModel == SourceModel::Subtraction;
   const DipoleLoads loads = subtraction ? DipoleLoads{} : dipoleLoads(mesh, res.sources, res.sourceTets, params.sourceModel);
   // Subtraction: every electrode's solution, for the sources' loads after the solves.
   Eigen::MatrixXd solutions = subtraction ? Eigen::MatrixXd::Zero(Eigen::Index(np), Eigen::Index(ne)) : Eigen::MatrixXd();
   double mSeconds = 0;
-  for (size_t e = 0; e < ne; ++e) {
+  std::vector<size_t> toSolve; // V_e - V_g = 0 for the ground's vertex
+  for (size_t e = 0; e < ne; ++e)
+    if (res.vertex[e] != groundVertex) toSolve.push_back(e);
+  // Direct: blocks of right-hand sides (transferBlockSize); a cancel is seen between blocks.
+  const size_t block = solver.direct() ? transferBlockSize(res.dofs) : 1;
+  Eigen::MatrixXd B, X;
+  Eigen::VectorXd x;
+  size_t done = 0;
+  for (size_t first = 0; first < toSolve.size(); first += block) {
     progress.checkCancel();
-    if (res.vertex[e] == groundVertex) continue; // V_e - V_g = 0
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(res.dofs);
-    b[sys.reducedIndex[size_t(res.vertex[e])]] = 1.0; // 1 mA in at e, out at the ground
-    solver.solve(b, x);
-    countTransferSolve(res, solver, "electrode " + res.names[e]);
-    const auto tm = std::chrono::steady_clock::now();
-    const Eigen::VectorXd u = sys.expand(x);
-    if (subtraction) {
-      solutions.col(Eigen::Index(e)) = u;
-      mSeconds += secondsSince(tm);
-      progress.report(double(e + 1) / double(ne));
-      continue;
+    const size_t count = std::min(block, toSolve.size() - first);
+    if (solver.direct()) {
+      B = Eigen::MatrixXd::Zero(res.dofs, Eigen::Index(count));
+      for (size_t j = 0; j < count; ++j)
+        B(sys.reducedIndex[size_t(res.vertex[toSolve[first + j]])], Eigen::Index(j)) = 1.0;
+      solver.solveBlock(B, X);
     }
+    for (size_t j = 0; j < count; ++j) {
+      const size_t e = toSolve[first + j];
+      if (!solver.direct()) {
+        Eigen::VectorXd b = Eigen::VectorXd::Zero(res.dofs);
+        b[sys.reducedIndex[size_t(res.vertex[e])]] = 1.0; // 1 mA in at e, out at the ground
+        solver.solve(b, x);
+      }
+      countTransferSolve(res, solver, "electrode " + res.names[e]);
+      const auto tm = std::chrono::steady_clock::now();
+      const Eigen::VectorXd u = solver.direct() ? sys.expand(X.col(Eigen::Index(j))) : sys.expand(x);
+      if (subtraction) {
+        solutions.col(Eigen::Index(e)) = u;
+      } else {
 #pragma omp parallel for schedule(static)
-    for (int64_t s = 0; s < int64_t(ns); ++s)
-      for (int k = 0; k < 3; ++k)
-        res.matrix(Eigen::Index(e), Eigen::Index(3 * s + k)) = loads.apply(size_t(3 * s + k), u);
-    mSeconds += secondsSince(tm);
-    progress.report(double(e + 1) / double(ne));
+        for (int64_t s = 0; s < int64_t(ns); ++s)
+          for (int k = 0; k < 3; ++k)
+            res.matrix(Eigen::Index(e), Eigen::Index(3 * s + k)) = loads.apply(size_t(3 * s + k), u);
+      }
+      mSeconds += secondsSince(tm);
+      progress.report(double(++done) / double(toSolve.size()));
+    }
   }
   progress.endStage();
   res.solveSeconds = secondsSince(t0) - mSeconds;

@@ -19,7 +19,9 @@
 // order, or the points `sourcePoints` (each located in its tet; a point outside the mesh is an
 // InputError naming it). Units: mm, S/m, mA mm, V.
 //
-// Stages: assemble, snap electrodes, solve (one per electrode, fraction reported), lead field.
+// Stages: sources, assemble, snap electrodes, [factorize: solver = cholesky only,] solve (one per
+// electrode, fraction reported; cholesky: blocks of transferBlockSize() electrodes), lead field;
+// they sum to the whole call.
 // Errors (InputError): no electrodes, both or neither source kind, a source label absent from the
 // mesh, electrodes in different connected pieces of the mesh, an unknown reference name, bad
 // conductivities or solver parameters, not enough memory for the matrix (the message says how
@@ -63,7 +65,7 @@ struct LeadFieldResult {
   int64_t dofs = 0, nnz = 0, solves = 0, iterationsTotal = 0, iterationsMax = 0;
   int64_t ranks = 1;
   bool converged = true;
-  double assembleSeconds = 0, solveSeconds = 0, matrixSeconds = 0;
+  double assembleSeconds = 0, setupSeconds = 0, solveSeconds = 0, matrixSeconds = 0; // setup: a direct solver's factorisation
   std::vector<std::string> notes;
 };
 
@@ -89,6 +91,11 @@ void countTransferSolve(Result& res, const IterativeSolver& solver, const std::s
 // label absent from the mesh, a point outside it (numbered from 1).
 void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
                       std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress);
+
+// Right-hand sides a direct solver takes per pass in a transfer matrix of `dofs` unknowns: as many
+// as fit in a twentieth of the memory left, 1 to 16 (more saved no time on the 1 mm head, and 64
+// cost 1.4 GB there).
+size_t transferBlockSize(int64_t dofs);
 
 LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& params, Progress& progress);
 

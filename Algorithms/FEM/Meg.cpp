@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/Timing.h"
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/IO/FileUtil.h"
 #include "Assembly.h"
@@ -19,10 +20,6 @@
 namespace tetflow {
 
 namespace {
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 bool parseFiniteNumber(const std::string& t, double& v) {
   if (t.empty()) return false;
@@ -60,11 +57,12 @@ int64_t coilsInside(const TetMesh& mesh, const std::vector<MegSensor>& sensors) 
   for (const Vec3& p : mesh.points)
     for (int k = 0; k < 3; ++k) lo[size_t(k)] = std::min(lo[size_t(k)], p[size_t(k)]), hi[size_t(k)] = std::max(hi[size_t(k)], p[size_t(k)]);
   int64_t n = 0;
+  const TetLocator locator(mesh);
   for (const MegSensor& s : sensors)
     for (const MegCoil& c : s.coils) {
       bool inBox = true;
       for (int k = 0; k < 3; ++k) inBox &= c.position[size_t(k)] >= lo[size_t(k)] && c.position[size_t(k)] <= hi[size_t(k)];
-      if (inBox && locatePoint(mesh, c.position)) ++n;
+      if (inBox && locator.locate(c.position)) ++n;
     }
   return n;
 }
@@ -406,11 +404,19 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
 
   res.matrix = Eigen::MatrixXd::Zero(Eigen::Index(nc), Eigen::Index(3 * ns));
   res.primary = Eigen::MatrixXd::Zero(Eigen::Index(nc), Eigen::Index(3 * ns));
-  progress.beginStage("solve");
-  const SigmaLookup sigma(mesh, params.conductivities);
   IterativeSolver solver(params.solver);
   solver.setOperator(sys.K);
   NullProgress quiet;
+  if (solver.direct()) { // the factorisation once, before the sensors' solves
+    const auto tf = std::chrono::steady_clock::now();
+    progress.beginStage("factorize");
+    solver.setProgress(&progress);
+    solver.setUp();
+    progress.endStage();
+    res.setupSeconds = secondsSince(tf);
+  }
+  progress.beginStage("solve");
+  const SigmaLookup sigma(mesh, params.conductivities);
   solver.setProgress(&quiet);
   Eigen::VectorXd x;
   const auto& q = mesh.tets;

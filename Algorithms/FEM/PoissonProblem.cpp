@@ -14,15 +14,12 @@
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Core/Timing.h"
 #include "Algorithms/Core/MemoryBudget.h"
 
 namespace tetflow {
 
 namespace {
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string labelList(const std::vector<int32_t>& labels) {
   std::string s;
@@ -329,8 +326,11 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   progress.beginStage("condition");
   const bool jacobi = params.solver.preconditioner == PreconditionerKind::Jacobi;
   const bool petsc = params.solver.backend == SolverBackend::Petsc;
+  const bool direct = params.solver.kind == SolverKind::Cholesky;
   if (petsc) { // PETSc keeps no Lanczos tridiagonal: the estimates below come from Eigen CG runs
     res.lanczos.method = "not available with solver_backend petsc";
+  } else if (direct) { // likewise a direct solve
+    res.lanczos.method = "not available with solver = cholesky";
   } else {
     std::string what = params.solver.kind == SolverKind::Minres ? "MINRES" : "CG";
     what += jacobi ? " on M^-1 K, M = diag(K)" : " on K";
@@ -357,7 +357,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
                                                       : "CG on K, random right-hand side");
     };
     auto lanczosFor = [&](bool wantJacobi) {
-      return wantJacobi == jacobi && !petsc ? res.lanczos : otherLanczos(wantJacobi);
+      return wantJacobi == jacobi && !petsc && !direct ? res.lanczos : otherLanczos(wantJacobi);
     };
     const bool tooBig = params.condition.max_dofs > 0 && res.dofs > params.condition.max_dofs;
     if (params.estimate_condition && !tooBig) {

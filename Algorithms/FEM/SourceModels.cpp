@@ -27,13 +27,13 @@ SourceModel sourceModelFromName(const std::string& name) {
   throw InputError("source_model '" + name + "': use partial_integration, venant or subtraction");
 }
 
-VenantSources::VenantSources(const TetMesh& mesh) : mesh_(mesh), stars_(vertexStars(mesh)) {}
+VenantSources::VenantSources(const TetMesh& mesh) : mesh_(mesh), stars_(vertexStars(mesh)), locator_(mesh) {}
 
 std::vector<std::pair<int32_t, double>> VenantSources::monopoles(const Vec3& x, const Vec3& M) const {
   const double m = norm(M);
   if (!(m > 0) || !std::isfinite(m))
     throw InputError("dipole_moment: must be a non-zero finite vector (mA mm)");
-  const auto loc = locatePoint(mesh_, x);
+  const auto loc = locator_.locate(x);
   if (!loc)
     throw InputError("dipole_position (" + std::to_string(x[0]) + ", " + std::to_string(x[1]) + ", " +
                      std::to_string(x[2]) + ") mm lies outside the mesh");

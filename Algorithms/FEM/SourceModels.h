@@ -28,6 +28,7 @@
 
 #include "Algorithms/Core/TetMesh.h"
 #include "Algorithms/Quality/LabelTopology.h"
+#include "TetLocator.h"
 
 namespace tetflow {
 
@@ -49,6 +50,7 @@ public:
 private:
   const TetMesh& mesh_;
   VertexStars stars_;
+  TetLocator locator_;
 };
 
 // The load of a unit dipole along each axis at each source, for lead fields: column 3 s + k is

@@ -66,7 +66,8 @@ void integrateTriangle(const Vec3& a, const Vec3& b, const Vec3& c, const std::a
 
 } // namespace
 
-SubtractionSources::SubtractionSources(const TetMesh& mesh, const ConductivityTable& sigma) : mesh_(mesh) {
+SubtractionSources::SubtractionSources(const TetMesh& mesh, const ConductivityTable& sigma)
+    : mesh_(mesh), locator_(mesh) {
   mesh.validateStructure("mesh");
   sigma_.resize(mesh.numTets());
   for (size_t t = 0; t < mesh.numTets(); ++t) sigma_[t] = sigma.tensor(mesh.materials[t]);
@@ -95,7 +96,7 @@ SubtractionSources::SubtractionSources(const TetMesh& mesh, const ConductivityTa
 }
 
 double SubtractionSources::sigmaAt(const Vec3& x0) const {
-  const auto loc = locatePoint(mesh_, x0);
+  const auto loc = locator_.locate(x0);
   if (!loc) {
     std::ostringstream m;
     m << "dipole_position (" << x0[0] << ", " << x0[1] << ", " << x0[2] << ") mm lies outside the mesh";

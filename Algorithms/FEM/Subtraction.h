@@ -36,6 +36,7 @@
 
 #include "Algorithms/Core/TetMesh.h"
 #include "Conductivity.h"
+#include "TetLocator.h"
 
 namespace tetflow {
 
@@ -58,6 +59,7 @@ public:
 
 private:
   const TetMesh& mesh_;
+  TetLocator locator_;
   std::vector<SymTensor6> sigma_;             // per tet
   std::vector<std::array<int32_t, 3>> faces_; // boundary faces, counter-clockwise seen from outside
   std::vector<std::pair<int32_t, double>> boundaryShare_; // boundary vertex, its share of the area

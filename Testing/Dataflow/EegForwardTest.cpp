@@ -194,7 +194,10 @@ TEST(EegForward, VenantBeatsPartialIntegrationAtHighEccentricity) {
 // AssembleFEMPoisson solves with the same model (Venant: the loads of unit moments; subtraction:
 // the singular potential's difference plus the correction's loads against each electrode's
 // solution).
-static void leadFieldEqualsDirectSolves(const char* model) {  test::TempDir dir;
+// With `solver` = cholesky both the lead field and the direct solves factorise (AssembleFEMPoisson
+// once per dipole, ComputeLeadField once for every electrode).
+static void leadFieldEqualsDirectSolves(const char* model, const char* solver = "minres") {
+  test::TempDir dir;
   test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 12));
   const char* sources[] = {"0 0 5", "4 -3 2", "-6 2 -4"};
   test::writeBytes(dir.file("src.csv"), "x,y,z\n0,0,5\n4,-3,2\n-6,2,-4\n");
@@ -208,6 +211,7 @@ static void leadFieldEqualsDirectSolves(const char* model) {  test::TempDir dir;
   net.setParameterText("lf", "sources_file", dir.file("src.csv"));
   net.setParameterText("lf", "tolerance", "1e-12");
   net.setParameterText("lf", "source_model", model);
+  net.setParameterText("lf", "solver", solver);
   net.setParameterText("lf", "filename", dir.file("lf.npy"));
   net.connect("cl", 0, "lf", 0);
   const char* axes[] = {"1 0 0", "0 1 0", "0 0 1"};
@@ -217,10 +221,17 @@ static void leadFieldEqualsDirectSolves(const char* model) {  test::TempDir dir;
       addDipole(net, id, sources[s], axes[k]);
       net.setParameterText(id, "tolerance", "1e-12");
       net.setParameterText(id, "source_model", model);
+      net.setParameterText(id, "solver", solver);
     }
   Executor exec;
   ASSERT_TRUE(exec.execute(net).success) << exec.state("lf")->error;
   EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("source_model")), model);
+  EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("solver")), solver);
+  if (std::string(solver) == "cholesky") {
+    EXPECT_GT(exec.state("lf")->report.number("setup_seconds"), 0.0);
+    EXPECT_EQ(exec.state("lf")->report.number("iterations_total"), 0);
+    EXPECT_EQ(exec.state("lf")->report.number("solves"), 11);
+  }
   const Eigen::MatrixXd& L = leadField(exec, "lf");
   const std::vector<int32_t> vertex = snappedVertices(dir.file("lf.npy.electrodes.csv"));
   ASSERT_EQ(vertex.size(), 12u);
@@ -242,6 +253,10 @@ static void leadFieldEqualsDirectSolves(const char* model) {  test::TempDir dir;
 TEST(EegForward, VenantLeadFieldEqualsDirectVenantSolves) { leadFieldEqualsDirectSolves("venant"); }
 
 TEST(EegForward, SubtractionLeadFieldEqualsDirectSubtractionSolves) { leadFieldEqualsDirectSolves("subtraction"); }
+
+TEST(EegForward, CholeskyLeadFieldsEqualDirectCholeskySolvesForEverySourceModel) {
+  for (const char* model : {"partial_integration", "venant", "subtraction"}) leadFieldEqualsDirectSolves(model, "cholesky");
+}
 
 TEST(EegForward, LeadFieldEqualsDirectDipoleSolves) {
   test::TempDir dir;

@@ -102,7 +102,7 @@ TEST(MegModules, LeadFieldEqualsDirectSolvesAndComputeMEG) {
   double worst = 0;
   for (int s = 0; s < 3; ++s)
     for (int k = 0; k < 3; ++k) {
-      char mid[8];
+      char mid[32];
       std::snprintf(mid, sizeof mid, "b%d%d", s, k);
       const Eigen::MatrixXd& B = matrixOut(exec, mid);
       ASSERT_EQ(B.rows(), 17);
@@ -143,7 +143,7 @@ TEST(MegModules, VenantLeadFieldEqualsDirectVenantSolves) {
   double worst = 0;
   for (int s = 0; s < 2; ++s)
     for (int k = 0; k < 3; ++k) {
-      char mid[8];
+      char mid[32];
       std::snprintf(mid, sizeof mid, "b%d%d", s, k);
       const Eigen::MatrixXd& B = matrixOut(exec, mid);
       worst = std::max(worst, (L.col(3 * s + k) - B.col(0)).norm() / B.col(2).norm());

@@ -13,28 +13,9 @@
 #include "TestUtil.h"
 
 using namespace tetflow;
-using tetflow::test::kuhnBox;
-using tetflow::test::perturbInterior;
+using tetflow::test::checkerElectrodeSystem;
 
 namespace {
-
-// The reduced electrode system of a perturbed two-material box (sigma contrast 100).
-ReducedSystem electrodeSystem(std::array<int, 3> n, unsigned seed) {
-  const Vec3 lo{0, 0, 0}, hi{double(n[0]), double(n[1]), double(n[2])};
-  TetMesh m = kuhnBox(n, lo, hi, [](int i, int j, int k) { return (i / 2 + j / 2 + k / 2) % 2 ? 1 : 2; });
-  perturbInterior(m, lo, hi, 1.0, 0.15, seed);
-  ConductivityTable s;
-  s.set(1, 1.0);
-  s.set(2, 0.01);
-  NullProgress np;
-  const SparseMatrix K = assembleStiffness(m, s, np);
-  DirichletSet d(m.numPoints());
-  for (size_t v = 0; v < m.numPoints(); ++v) {
-    if (m.points[v][0] == lo[0]) d.set(v, 1.0);
-    if (m.points[v][0] == hi[0]) d.set(v, 0.0);
-  }
-  return eliminateDirichlet(K, Eigen::VectorXd::Zero(K.rows()), d);
-}
 
 // ||r||_{M^-1} / ||b||_{M^-1} computed from scratch.
 double preconditionedRelres(const SparseMatrix& K, const Eigen::VectorXd& b, const Eigen::VectorXd& x, bool jacobi) {
@@ -51,7 +32,7 @@ TEST(FemSolver, MinresIterationCountMatchesEigensMinres) {
   // preconditioned relative residual as ours (prod |s_k| = ||r_k||_{M^-1} / ||b||_{M^-1}), but
   // it does not count the iteration in which it stops: ours = Eigen's + 1.
   for (unsigned seed : {3u, 4u}) {
-    const ReducedSystem sys = electrodeSystem({10, 6, 5}, seed);
+    const ReducedSystem sys = checkerElectrodeSystem({10, 6, 5}, seed);
     for (bool jacobi : {true, false})
       for (double tol : {1e-6, 1e-10}) {
         IterativeSolver mine({SolverKind::Minres, jacobi ? PreconditionerKind::Jacobi : PreconditionerKind::None, tol, 5000});
@@ -94,7 +75,7 @@ TEST(FemSolver, MinresIterationCountMatchesEigensMinres) {
 }
 
 TEST(FemSolver, JacobiPreconditioningHelpsOnHighContrast) {
-  const ReducedSystem sys = electrodeSystem({10, 6, 5}, 5);
+  const ReducedSystem sys = checkerElectrodeSystem({10, 6, 5}, 5);
   int64_t its[2];
   for (int i = 0; i < 2; ++i) {
     IterativeSolver s({SolverKind::Minres, i == 0 ? PreconditionerKind::Jacobi : PreconditionerKind::None, 1e-8, 5000});
@@ -108,7 +89,7 @@ TEST(FemSolver, JacobiPreconditioningHelpsOnHighContrast) {
 }
 
 TEST(FemSolver, CgAgreesWithMinresAndMeasuresTheSameResidual) {
-  const ReducedSystem sys = electrodeSystem({8, 5, 5}, 6);
+  const ReducedSystem sys = checkerElectrodeSystem({8, 5, 5}, 6);
   Eigen::VectorXd xm, xc;
   for (auto prec : {PreconditionerKind::Jacobi, PreconditionerKind::None}) {
     IterativeSolver m({SolverKind::Minres, prec, 1e-11, 5000});
@@ -129,7 +110,7 @@ TEST(FemSolver, CgAgreesWithMinresAndMeasuresTheSameResidual) {
 }
 
 TEST(FemSolver, NotConvergingIsAStatusNotAnException) {
-  const ReducedSystem sys = electrodeSystem({8, 5, 5}, 7);
+  const ReducedSystem sys = checkerElectrodeSystem({8, 5, 5}, 7);
   for (auto kind : {SolverKind::Minres, SolverKind::Cg}) {
     IterativeSolver s({kind, PreconditionerKind::Jacobi, 1e-10, 3});
     s.setOperator(sys.K);
@@ -162,7 +143,7 @@ TEST(FemSolver, NotConvergingIsAStatusNotAnException) {
 }
 
 TEST(FemSolver, ZeroRightHandSideAndMonitorAndCancellation) {
-  const ReducedSystem sys = electrodeSystem({6, 4, 4}, 8);
+  const ReducedSystem sys = checkerElectrodeSystem({6, 4, 4}, 8);
   IterativeSolver s({SolverKind::Minres, PreconditionerKind::Jacobi, 1e-8, 100});
   s.setOperator(sys.K);
   Eigen::VectorXd x;
@@ -185,7 +166,7 @@ TEST(FemSolver, ZeroRightHandSideAndMonitorAndCancellation) {
 TEST(FemSolver, ResultsDoNotDependOnTheThreadCount) {
   // Large enough for the chunked vector kernels (> 8 chunks of 4096) and the mat-vec to run in
   // parallel.
-  const ReducedSystem sys = electrodeSystem({36, 30, 30}, 12);
+  const ReducedSystem sys = checkerElectrodeSystem({36, 30, 30}, 12);
   ASSERT_GT(sys.K.rows(), 8 * 4096);
   const int saved = omp_get_max_threads();
   for (auto kind : {SolverKind::Minres, SolverKind::Cg}) {
@@ -206,7 +187,7 @@ TEST(FemSolver, ResultsDoNotDependOnTheThreadCount) {
 }
 
 TEST(FemSolver, BadConfigurationIsAnInputError) {
-  const ReducedSystem sys = electrodeSystem({4, 3, 3}, 9);
+  const ReducedSystem sys = checkerElectrodeSystem({4, 3, 3}, 9);
   Eigen::VectorXd x;
   IterativeSolver none;
   EXPECT_THROW_MSG(none.solve(sys.b, x), InputError, "no operator");
@@ -226,7 +207,7 @@ TEST(FemSolver, BadConfigurationIsAnInputError) {
 }
 
 TEST(FemConditioning, SpectraAgreesWithADenseEigenSolve) {
-  const ReducedSystem sys = electrodeSystem({8, 5, 4}, 10); // a few hundred dofs
+  const ReducedSystem sys = checkerElectrodeSystem({8, 5, 4}, 10); // a few hundred dofs
   ASSERT_GT(sys.K.rows(), 200);
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> dense((Eigen::MatrixXd(sys.K)));
   const double kmin = dense.eigenvalues()[0], kmax = dense.eigenvalues()[sys.K.rows() - 1];

@@ -10,7 +10,10 @@
 #include <random>
 #include <vector>
 
+#include "Algorithms/Core/Progress.h"
 #include "Algorithms/Core/TetMesh.h"
+#include "Algorithms/FEM/Assembly.h"
+#include "Algorithms/FEM/BoundaryConditions.h"
 
 namespace tetflow::test {
 
@@ -151,6 +154,33 @@ inline TetMesh cubedBall(int h, double R) {
     if (two > 0) p = (inf / two * R / double(h)) * p;
   }
   return m;
+}
+
+// A box of n cells per axis, [0, n], in 2-cell blocks of two materials (1 and 2) like a 3-D
+// checkerboard, its interior vertices perturbed (seed), and its electrode problem: x = 0 at 1 V,
+// x = n[0] at 0 V, sigma 1 and 0.01 S/m (contrast 100).
+inline TetMesh checkerBox(std::array<int, 3> n, unsigned seed) {
+  const Vec3 lo{0, 0, 0}, hi{double(n[0]), double(n[1]), double(n[2])};
+  TetMesh m = kuhnBox(n, lo, hi, [](int i, int j, int k) { return (i / 2 + j / 2 + k / 2) % 2 ? 1 : 2; });
+  perturbInterior(m, lo, hi, 1.0, 0.15, seed);
+  return m;
+}
+inline ConductivityTable checkerSigma() {
+  ConductivityTable s;
+  s.set(1, 1.0);
+  s.set(2, 0.01);
+  return s;
+}
+inline ReducedSystem checkerElectrodeSystem(std::array<int, 3> n, unsigned seed) {
+  const TetMesh m = checkerBox(n, seed);
+  NullProgress np;
+  const SparseMatrix K = assembleStiffness(m, checkerSigma(), np);
+  DirichletSet d(m.numPoints());
+  for (size_t v = 0; v < m.numPoints(); ++v) {
+    if (m.points[v][0] == 0.0) d.set(v, 1.0);
+    if (m.points[v][0] == double(n[0])) d.set(v, 0.0);
+  }
+  return eliminateDirichlet(K, Eigen::VectorXd::Zero(K.rows()), d);
 }
 
 } // namespace tetflow::test

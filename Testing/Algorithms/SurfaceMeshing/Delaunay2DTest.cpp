@@ -27,6 +27,7 @@ namespace {
 
 // ---- Exact reference: signed big integers (a double is an integer times a power of two).
 
+namespace bigint {
 struct Big {
   bool neg = false;
   std::vector<uint32_t> mag; // little-endian, no leading zero limbs
@@ -110,6 +111,9 @@ Big operator*(const Big& a, const Big& b) {
   r.neg = a.neg != b.neg;
   return r;
 }
+} // namespace bigint
+using bigint::Big;
+using bigint::trim; // the operators stay in bigint (found by ADL), out of other files' way in a unity batch
 
 // The power of two that makes v an integer (v * 2^scaleFor(v) is one).
 int scaleFor(double v) {

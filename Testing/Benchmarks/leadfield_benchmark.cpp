@@ -1,0 +1,175 @@
+// EEG lead field benchmark (issue "the simulation at the speed of the mesh"): one solver on one
+// head mesh, as ComputeLeadField runs it (computeLeadField, LeadField.h).
+//
+//   leadfield_benchmark MESH --solver minres|cg|cholesky [--preconditioner jacobi|none|gamg|hypre]
+//                       [--backend eigen|petsc] [--electrodes 128] [--sources 5000]
+//                       [--scalp 1] [--grey 4] [--check K] [--tolerance 1e-8]
+//
+// Electrodes: boundary vertices of `--scalp` tets in the upper 60 % of the
+// head, spread by farthest-point sampling from the top vertex; the first is the reference (its
+// rows are V_e - V_E0, so any subset of electrodes gives the same rows). Sources: the centroids of
+// `--sources` grey-matter tets (`--grey`) drawn at random (fixed seed). Conductivities 0.43 /
+// 0.01 / 1.79 / 0.33 / 0.14 S/m for labels 1-5 (scalp, skull, CSF, grey, white), others 0.43.
+// Prints one line of key=value figures: unknowns, solves, seconds per stage (sources, assemble,
+// snap, factorize, solve, lead field), per solve, iterations, and with --check K the largest
+// relative difference of each lead-field column (restricted to electrodes 1..K) against MINRES +
+// Jacobi at tolerance --check-tolerance (1e-12). Testing/Benchmarks/leadfield_benchmark.sh runs it per solver under
+// /usr/bin/time (peak memory) and writes results/leadfield.txt.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <random>
+#include <string>
+
+#include "Algorithms/Core/Errors.h"
+#include "Algorithms/FEM/Assembly.h"
+#include "Algorithms/FEM/LeadField.h"
+#include "Algorithms/IO/MeshIO.h"
+
+using namespace tetflow;
+
+namespace {
+
+struct Options {
+  std::string mesh, solver = "minres", preconditioner = "jacobi", backend = "eigen";
+  int electrodes = 128, sources = 5000, scalp = 1, grey = 4, check = 0;
+  double tolerance = 1e-8, checkTolerance = 1e-12;
+};
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) throw InputError(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--solver") o.solver = next();
+    else if (a == "--preconditioner") o.preconditioner = next();
+    else if (a == "--backend") o.backend = next();
+    else if (a == "--electrodes") o.electrodes = std::stoi(next());
+    else if (a == "--sources") o.sources = std::stoi(next());
+    else if (a == "--scalp") o.scalp = std::stoi(next());
+    else if (a == "--grey") o.grey = std::stoi(next());
+    else if (a == "--check") o.check = std::stoi(next());
+    else if (a == "--tolerance") o.tolerance = std::stod(next());
+    else if (a == "--check-tolerance") o.checkTolerance = std::stod(next());
+    else if (o.mesh.empty() && a[0] != '-') o.mesh = a;
+    else throw InputError("unknown argument " + a);
+  }
+  if (o.mesh.empty()) throw InputError("usage: leadfield_benchmark MESH --solver minres|cg|cholesky [...]");
+  return o;
+}
+
+std::vector<Electrode> scalpElectrodes(const TetMesh& m, int scalp, int count) {
+  const std::vector<uint8_t> boundary = boundaryVertexFlags(m);
+  std::vector<uint8_t> onScalp(m.numPoints(), 0);
+  for (size_t t = 0; t < m.numTets(); ++t)
+    if (m.materials[t] == scalp)
+      for (int32_t v : m.tets[t]) onScalp[size_t(v)] = 1;
+  double zlo = 1e300, zhi = -1e300;
+  for (const Vec3& p : m.points) zlo = std::min(zlo, p[2]), zhi = std::max(zhi, p[2]);
+  std::vector<int32_t> verts;
+  for (size_t v = 0; v < m.numPoints(); ++v)
+    if (boundary[v] && onScalp[v] && m.points[v][2] >= zlo + 0.4 * (zhi - zlo)) verts.push_back(int32_t(v));
+  const std::vector<int32_t>& cand = verts;
+  if (cand.empty()) throw InputError("no scalp surface vertices (label " + std::to_string(scalp) + ")");
+  size_t first = 0;
+  for (size_t i = 1; i < cand.size(); ++i)
+    if (m.points[size_t(cand[i])][2] > m.points[size_t(cand[first])][2]) first = i;
+  std::vector<double> dist(cand.size(), 1e300);
+  std::vector<Electrode> out;
+  size_t pick = first;
+  for (int e = 0; e < count && e < int(cand.size()); ++e) {
+    out.push_back({"E" + std::to_string(e), m.points[size_t(cand[pick])], e + 1});
+    const Vec3 p = m.points[size_t(cand[pick])];
+    size_t far = 0;
+    for (size_t i = 0; i < cand.size(); ++i) {
+      dist[i] = std::min(dist[i], norm(m.points[size_t(cand[i])] - p));
+      if (dist[i] > dist[far]) far = i;
+    }
+    pick = far;
+  }
+  return out;
+}
+
+std::vector<Vec3> greySources(const TetMesh& m, int grey, int count) {
+  std::vector<int64_t> tets;
+  for (size_t t = 0; t < m.numTets(); ++t)
+    if (m.materials[t] == grey) tets.push_back(int64_t(t));
+  if (tets.empty()) throw InputError("no grey-matter tets (label " + std::to_string(grey) + ")");
+  std::mt19937_64 rng(1);
+  std::vector<Vec3> out;
+  for (int s = 0; s < count && s < int(tets.size()); ++s) {
+    std::uniform_int_distribution<size_t> pick(size_t(s), tets.size() - 1);
+    std::swap(tets[size_t(s)], tets[pick(rng)]);
+    const auto& q = m.tets[size_t(tets[size_t(s)])];
+    Vec3 c{0, 0, 0};
+    for (int a = 0; a < 4; ++a) c = c + 0.25 * m.points[size_t(q[a])];
+    out.push_back(c);
+  }
+  return out;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Options o = parse(argc, argv);
+    auto t0 = std::chrono::steady_clock::now();
+    const TetMesh mesh = readMesh(o.mesh);
+    const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    LeadFieldParams p;
+    p.conductivities = parseConductivities({"1:0.43", "2:0.01", "3:1.79", "4:0.33", "5:0.14"}, 0.43);
+    p.electrodes = scalpElectrodes(mesh, o.scalp, o.electrodes);
+    p.reference = p.electrodes[0].name;
+    p.sourcePoints = greySources(mesh, o.grey, o.sources);
+    p.solver.kind = solverKindFromName(o.solver);
+    p.solver.preconditioner = preconditionerKindFromName(o.preconditioner);
+    p.solver.backend = solverBackendFromName(o.backend);
+    p.solver.tolerance = o.tolerance;
+    NullProgress np;
+    t0 = std::chrono::steady_clock::now();
+    const LeadFieldResult r = computeLeadField(mesh, p, np);
+    np.endStage();
+    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("solver=%s preconditioner=%s backend=%s tets=%zu dofs=%lld nnz=%lld electrodes=%zu sources=%zu "
+                "read_s=%.2f total_s=%.2f",
+                o.solver.c_str(), o.preconditioner.c_str(), o.backend.c_str(), mesh.numTets(), (long long)r.dofs,
+                (long long)r.nnz, r.names.size(), r.sources.size(), readSeconds, total);
+    double stages = 0;
+    for (const auto& st : np.stageTimes()) {
+      std::string key = st.name;
+      std::replace(key.begin(), key.end(), ' ', '_');
+      std::printf(" %s_s=%.2f", key.c_str(), st.seconds);
+      stages += st.seconds;
+    }
+    std::printf(" stages_sum_s=%.2f solves=%lld per_solve_s=%.3f iterations_mean=%.1f iterations_max=%lld converged=%d",
+                stages, (long long)r.solves, r.solves ? r.solveSeconds / double(r.solves) : 0.0,
+                r.solves ? double(r.iterationsTotal) / double(r.solves) : 0.0, (long long)r.iterationsMax,
+                r.converged ? 1 : 0);
+    if (o.check > 0) {
+      LeadFieldParams q = p;
+      q.electrodes.resize(size_t(std::min<int>(o.check + 1, int(p.electrodes.size()))));
+      q.solver = SolverParams{SolverKind::Minres, PreconditionerKind::Jacobi, o.checkTolerance, 100000};
+      const LeadFieldResult ref = computeLeadField(mesh, q, np);
+      double worst = 0;
+      const Eigen::Index rows = ref.matrix.rows();
+      for (Eigen::Index c = 0; c < ref.matrix.cols(); ++c) {
+        const double den = ref.matrix.col(c).norm();
+        if (den > 0) worst = std::max(worst, (r.matrix.col(c).head(rows) - ref.matrix.col(c)).norm() / den);
+      }
+      std::printf(" check_rows=%lld check_tolerance=%g check_max_rel_diff=%.3g check_iterations_mean=%.0f", (long long)(rows - 1),
+                  o.checkTolerance, worst, ref.solves ? double(ref.iterationsTotal) / double(ref.solves) : 0.0);
+    }
+    for (const auto& n : r.notes)
+      if (n.rfind("cholesky: ", 0) == 0) std::printf(" note=\"%s\"", n.c_str());
+    std::printf("\n");
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "leadfield_benchmark: %s\n", e.what());
+    return 1;
+  }
+}
