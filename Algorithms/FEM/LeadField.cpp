@@ -179,7 +179,8 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
     const SparseCholesky& f = *solver.cholesky();
     std::ostringstream m;
     m << "cholesky: " << f.ordering() << " ordering, " << f.factorNonzeros() << " nonzeros in L ("
-      << formatBytes(f.factorBytes()) << "), " << f.flops() << " flops, " << f.factorizeSeconds() << " s";
+      << formatBytes(f.factorBytes()) << "), " << f.flops() << " flops; analysis " << f.analyzeSeconds()
+      << " s, numeric factorisation " << f.factorizeSeconds() << " s";
     res.notes.push_back(m.str());
     progress.endStage();
     res.setupSeconds = secondsSince(t0);

@@ -31,8 +31,6 @@ const char* orderingName(int o) {
 }
 } // namespace
 
-bool choleskyAvailable() { return true; }
-
 struct SparseCholesky::State {
   cholmod_common c;
   cholmod_sparse* A = nullptr; // lower triangle of K, 64-bit indices

@@ -5,16 +5,16 @@
 // every tDCS montage on one mesh share K, so they pay for the factorisation once and then two
 // triangular solves per right-hand side, many at a time (supernodal blocks: BLAS-3).
 //
-// Library: CHOLMOD (SuiteSparse; Debian libsuitesparse-dev), supernodal, with the ordering
-// CHOLMOD picks by its default strategy (AMD, and METIS's nested dissection when AMD's fill is
-// high), 64-bit indices. K must be symmetric with both triangles stored (the lower one is read),
+// Library: CHOLMOD (SuiteSparse; Debian libsuitesparse-dev), supernodal, 64-bit indices; METIS's
+// nested dissection as the ordering from 50 000 unknowns on (below, CHOLMOD's default strategy:
+// AMD, and METIS too when AMD's fill is high). K must be symmetric with both triangles stored (the lower one is read),
 // compressed, column-major.
 //
 // Memory: analyze() computes the ordering and the factor's exact size (predicted bytes of L and
 // the flops of the factorisation) before any numeric work; factorize() calls requireMemory()
 // with that size and is refused, naming the system and what would fit, when it is over budget
 // (MemoryBudget.h). Cancellation: the numeric factorisation (seconds to minutes, no callbacks in
-// CHOLMOD) runs on a worker thread while the caller polls Progress::checkCancel() every 20 ms;
+// CHOLMOD) runs on a worker thread while the caller polls Progress::cancelRequested() every 20 ms;
 // a cancelled factorisation returns (throws Cancelled) within that time and leaves its worker to
 // finish and free its memory in the background. Errors: not positive definite (a column's pivot
 // <= 0) is an InputError naming the column; CHOLMOD running out of memory is a ProcessingError.
@@ -27,10 +27,6 @@
 #include "Assembly.h"
 
 namespace tetflow {
-
-// Whether this build has CHOLMOD (always, since it is a required dependency; kept so callers can
-// say why a kind is missing if that changes).
-bool choleskyAvailable();
 
 class SparseCholesky {
 public:
