@@ -45,7 +45,8 @@ public:
     rep.set("dofs", i64(r.dofs));
     rep.set("nnz", i64(r.nnz));
     rep.set("source_model", sourceModelName(p.sourceModel));
-    rep.set("solver", solverKindName(p.solver.kind));
+    rep.set("solver", r.solverUsed);
+    if (p.solver.kind == SolverKind::Auto) rep.set("solver_requested", std::string("auto"));
     rep.set("preconditioner", preconditionerKindName(p.solver.preconditioner));
     rep.set("solver_backend", solverBackendName(p.solver.backend));
     rep.set("ranks", i64(r.ranks));
@@ -107,7 +108,7 @@ void registerComputeLeadField(ModuleRegistry& r) {
   ParamSpec ref = makeParam("reference", ParamType::String, std::string("average"), "",
                             "average (subtract the mean over the electrodes) or an electrode name");
   const std::vector<ParamSpec> lf = leadFieldParamSpecs(); // source_labels, sources_file, filename
-  const std::vector<ParamSpec> sp = solverParamSpecs();
+  const std::vector<ParamSpec> sp = solverParamSpecs("auto");
   m.params = {cond, def, ef, unit, ref, lf[0], lf[1], sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], lf[2], cp[2], sourceModelParamSpec(true)};
   m.summaryKeys = {"electrodes", "sources", "solves", "iterations_max", "snap_distance_max", "converged"};
   m.factory = [] { return std::make_unique<ComputeLeadField>(); };

@@ -6,13 +6,15 @@
 
 namespace tetflow {
 
-std::vector<ParamSpec> solverParamSpecs() {
+std::vector<ParamSpec> solverParamSpecs(const std::string& defaultSolver) {
   const SolverParams d;
-  ParamSpec solver = makeParam("solver", ParamType::Enum, std::string("minres"), "",
-                               "minres (Paige-Saunders), cg, or cholesky (sparse Cholesky factorisation, "
+  ParamSpec solver = makeParam("solver", ParamType::Enum, defaultSolver, "",
+                               "minres (Paige-Saunders), cg, cholesky (sparse Cholesky factorisation, "
                                "CHOLMOD: factorised once, then two triangular solves per right-hand side; "
-                               "solver_backend eigen)");
-  solver.choices = {"minres", "cg", "cholesky"};
+                               "solver_backend eigen), or auto (cholesky when its factor fits in memory and "
+                               "is predicted faster for the solves at hand, else minres; the log says which "
+                               "and why)");
+  solver.choices = {"minres", "cg", "cholesky", "auto"};
   ParamSpec prec = makeParam("preconditioner", ParamType::Enum, std::string("jacobi"), "",
                              "jacobi (M = diag(K)), none, or with solver_backend petsc: gamg "
                              "(PETSc's algebraic multigrid) or hypre (BoomerAMG)");

@@ -48,7 +48,7 @@ void logUnfixed(ExecutionContext& ctx, const ImproveStats& s, const ImproveParam
 
 // Solver parameters shared by AssembleFEMPoisson and ComputeLeadField, in this order: solver,
 // preconditioner, tolerance, max_iterations, solver_backend, petsc_options.
-std::vector<ParamSpec> solverParamSpecs();
+std::vector<ParamSpec> solverParamSpecs(const std::string& defaultSolver = "minres");
 // conductivities, default_conductivity, conductivity_by_name (ConductivityParams.cpp).
 std::vector<ParamSpec> conductivityParamSpecs();
 // The conductivity table those give for `mesh`: labels or tissue names, then the mesh's label

@@ -6,7 +6,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <mutex>
 #include <sstream>
+#include <vector>
 #include <unistd.h>
 
 #include "Errors.h"
@@ -112,9 +114,37 @@ std::string formatBytes(double bytes) {
   return buf;
 }
 
+namespace {
+std::mutex gReclaimMutex;
+std::vector<std::function<bool()>>& reclaimers() {
+  static std::vector<std::function<bool()>> r;
+  return r;
+}
+} // namespace
+
+void addMemoryReclaimer(std::function<bool()> release) {
+  std::lock_guard<std::mutex> lock(gReclaimMutex);
+  reclaimers().push_back(std::move(release));
+}
+
+bool reclaimMemory() {
+  std::vector<std::function<bool()>> r;
+  {
+    std::lock_guard<std::mutex> lock(gReclaimMutex);
+    r = reclaimers();
+  }
+  bool freed = false;
+  for (const auto& f : r) freed = f() || freed;
+  return freed;
+}
+
 void requireMemory(double bytes, const std::string& what, const std::function<std::string(double)>& fix) {
-  const int64_t avail = memoryAvailable();
+  int64_t avail = memoryAvailable();
   if (bytes <= double(avail)) return;
+  if (reclaimMemory()) { // a cache let go of what it kept: measure again
+    avail = memoryAvailable();
+    if (bytes <= double(avail)) return;
+  }
   std::ostringstream m;
   m << what << " would need ~" << formatBytes(bytes) << "; " << formatBytes(double(avail)) << " available";
   if (const int64_t lim = gLimit; lim > 0) m << " (limit " << formatBytes(double(lim)) << ", from --max-memory or the GUI's memory limit)";

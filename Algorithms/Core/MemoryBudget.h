@@ -32,7 +32,12 @@ std::string formatBytes(double bytes);
 // Throws InputError "<what> would need ~<bytes>; <available> available[ (limit ...)]; <fix(available)>"
 // when `bytes` exceeds memoryAvailable(). `fix` gets the available bytes and returns the advice
 // (e.g. "use cell_size >= 0.4"); it may be empty.
+// Before refusing, requireMemory() asks every registered reclaimer to let go of what it keeps
+// for reuse (SolverCache.h: the last Cholesky factor) and measures again. A reclaimer returns
+// true when it freed something; it must not call requireMemory().
 void requireMemory(double bytes, const std::string& what, const std::function<std::string(double)>& fix);
+void addMemoryReclaimer(std::function<bool()> release);
+bool reclaimMemory(); // runs every reclaimer now; true when one freed something
 
 // Rounds a suggested lower bound up / upper bound down to two significant digits, so the printed
 // value is on the safe side.

@@ -8,13 +8,15 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Petsc/PetscLinearSolver.h"
+#include "SolverCache.h"
+#include "SolverChoice.h"
 #include "SparseCholesky.h"
 
 namespace tetflow {
 
 namespace {
 constexpr std::pair<SolverKind, const char*> kSolverNames[] = {
-    {SolverKind::Minres, "minres"}, {SolverKind::Cg, "cg"}, {SolverKind::Cholesky, "cholesky"}};
+    {SolverKind::Minres, "minres"}, {SolverKind::Cg, "cg"}, {SolverKind::Cholesky, "cholesky"}, {SolverKind::Auto, "auto"}};
 constexpr std::pair<PreconditionerKind, const char*> kPrecNames[] = {
     {PreconditionerKind::Jacobi, "jacobi"},
     {PreconditionerKind::None, "none"},
@@ -89,7 +91,7 @@ bool IterativeSolver::step(int64_t k, double relres) {
   if (monitor_) monitor_(k, relres);
   if (progress_) {
     progress_->checkCancel();
-    if ((k & 7) == 0) {
+    if (reportFraction_ && (k & 7) == 0) {
       const double frac = relres > 0 ? std::log(relres) / std::log(params_.tolerance) : 1.0;
       progress_->report(std::clamp(frac, 0.0, 1.0));
     }
@@ -107,29 +109,66 @@ void IterativeSolver::checkOperator(Eigen::Index rhsRows) const {
                      " entries for a matrix of size " + std::to_string(K.rows()));
 }
 
+void IterativeSolver::resetSetUp() {
+  petsc_.reset();
+  cholesky_.reset();
+  reused_ = false;
+  choiceNote_.clear();
+  if (autoRequested_) params_.kind = SolverKind::Auto;
+}
+
+void IterativeSolver::choose() {
+  if (params_.kind != SolverKind::Auto) return;
+  params_.validate();
+  checkOperator(K_ ? K_->rows() : 0);
+  NullProgress none;
+  SolverChoice c = chooseSolver(*K_, params_, rightHandSides_, progress_ ? *progress_ : none);
+  params_.kind = c.kind;
+  cholesky_ = c.factor;
+  reused_ = c.reused;
+  choiceNote_ = c.note;
+}
+
 double IterativeSolver::setUp() {
   params_.validate();
+  const auto t0 = std::chrono::steady_clock::now();
+  choose();
+  if (params_.backend == SolverBackend::Petsc) {
+    checkOperator(K_ ? K_->rows() : 0);
+    if (petsc_ && petsc_->sameSystem(*K_, params_)) return 0.0;
+    petsc_.reset(); // release the old system on every rank before distributing the new one
+    petsc_ = std::make_shared<PetscLinearSolver>(*K_, params_);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
   if (!direct() || (cholesky_ && cholesky_->factorized())) return 0.0;
   checkOperator(K_ ? K_->rows() : 0);
-  const auto t0 = std::chrono::steady_clock::now();
   NullProgress none;
   Progress& progress = progress_ ? *progress_ : none;
-  auto f = std::make_shared<SparseCholesky>();
-  f->analyze(*K_);
-  progress.checkCancel();
-  f->factorize(progress);
-  cholesky_ = f;
+  if (!cholesky_) {
+    if (auto kept = solver_cache::findCholesky(*K_)) {
+      cholesky_ = kept;
+      reused_ = true;
+      return 0.0;
+    }
+    auto f = std::make_shared<SparseCholesky>();
+    f->analyze(*K_);
+    progress.checkCancel();
+    cholesky_ = f;
+  }
+  cholesky_->factorize(progress);
+  solver_cache::keepCholesky(cholesky_);
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 void IterativeSolver::solveBlock(const Eigen::MatrixXd& B, Eigen::MatrixXd& X) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (K_) choose();
   if (!direct())
     throw InputError(std::string("IterativeSolver: solveBlock needs solver = cholesky (not ") +
                      solverKindName(params_.kind) + ")");
   checkOperator(B.rows());
   setUp();
-  cholesky_->solve(B, X);
+  cholesky_->solve(B, X, progress_);
   status_ = SolverStatus::Converged;
   iterations_ = 0;
   history_.assign(1, 1.0);
@@ -153,6 +192,7 @@ void IterativeSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   const auto t0 = std::chrono::steady_clock::now();
   params_.validate();
   checkOperator(b.size());
+  choose();
   const SparseMatrix& K = *K_;
   const Eigen::Index n = K.rows();
   if (direct()) {
@@ -205,11 +245,8 @@ void IterativeSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
 int IterativeSolver::ranks() const { return petsc_ ? petsc_->ranks() : 1; }
 
 void IterativeSolver::solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-  if (!petsc_ || !petsc_->sameSystem(*K_, params_)) { // first solve, or other params
-    petsc_.reset(); // release the old system on every rank before distributing the new one
-    petsc_ = std::make_shared<PetscLinearSolver>(*K_, params_);
-  }
-  const PetscLinearSolver::Outcome o = petsc_->solve(b, x, progress_);
+  setUp(); // first solve, or other params: distribute and set up (else nothing)
+  const PetscLinearSolver::Outcome o = petsc_->solve(b, x, progress_, reportFraction_);
   status_ = o.status;
   iterations_ = o.iterations;
   relres_ = o.relativeResidual;

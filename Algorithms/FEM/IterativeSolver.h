@@ -12,6 +12,10 @@
 //           (or an InputError when K is not positive definite), relativeResidual() and
 //           trueResidual() are both ||b - K x||_2 / ||b||_2; the preconditioner, tolerance and
 //           max_iterations do not apply. solveBlock() solves many right-hand sides in one pass.
+//           The factor is kept for reuse by later solvers of exactly the same K (SolverCache.h).
+//   Auto    chooses one of them at setUp() (or the first solve) for this system, the number of
+//           right-hand sides announced by setRightHandSides() and the memory available
+//           (SolverChoice.h); params().kind is then the kind chosen and choiceNote() says why.
 // Preconditioner M = diag(K) (Jacobi) or M = I (none). x0 = 0. With SolverParams::backend = Petsc
 // the same solvers run in PETSc on every MPI rank (Petsc/PetscLinearSolver.h), with PETSc's AMG
 // preconditioners as further choices.
@@ -39,6 +43,7 @@
 // iteration (throws Cancelled).
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -53,7 +58,7 @@ namespace tetflow {
 class PetscLinearSolver;
 class SparseCholesky;
 
-enum class SolverKind : int { Minres = 0, Cg = 1, Cholesky = 2 };
+enum class SolverKind : int { Minres = 0, Cg = 1, Cholesky = 2, Auto = 3 };
 const char* solverKindName(SolverKind k);
 SolverKind solverKindFromName(const std::string& name); // InputError listing the names
 
@@ -101,36 +106,60 @@ public:
   using Monitor = std::function<void(int64_t, double)>;
 
   IterativeSolver() = default;
-  explicit IterativeSolver(const SolverParams& p) : params_(p) {}
+  explicit IterativeSolver(const SolverParams& p) : params_(p), autoRequested_(p.kind == SolverKind::Auto) {}
 
   // --- configure ---
-  void setParams(const SolverParams& p) { params_ = p; }
+  void setParams(const SolverParams& p) {
+    params_ = p;
+    autoRequested_ = p.kind == SolverKind::Auto;
+    resetSetUp();
+  }
+  // After an auto choice, kind is the one chosen.
   const SolverParams& params() const { return params_; }
   // K must be square, symmetric with both triangles stored, compressed, and outlive solve().
   // With the Jacobi preconditioner every diagonal entry must be > 0 (checked in solve()).
   void setOperator(const SparseMatrix& K) {
     K_ = &K;
-    petsc_.reset(); // a new operator (even at the same address) is distributed again
-    cholesky_.reset(); // ... or factorised again
+    resetSetUp(); // a new operator (even at the same address) is set up again
   }
   void setMonitor(Monitor m) { monitor_ = std::move(m); }
-  void setProgress(Progress* p) { progress_ = p; }
+  // reportFraction false: the sink is asked for cancellation only (a caller reporting its own
+  // fraction over many solves, e.g. a lead field).
+  void setProgress(Progress* p, bool reportFraction = true) {
+    progress_ = p;
+    reportFraction_ = reportFraction;
+  }
+  // How many right-hand sides will be solved with this operator (solver = auto weighs a set-up
+  // against them); default 1.
+  void setRightHandSides(int64_t k) { rightHandSides_ = std::max<int64_t>(1, k); }
 
   // --- run --- (x is resized; x0 = 0). With backend Petsc the matrix is handed to PETSc at the
   // first solve and kept (with its preconditioner set up) for later solves with the same
   // operator and params: a lead field's many right-hand sides pay for the set-up once. InputError for a missing/non-square operator, a size
   // mismatch, bad params, or a non-positive diagonal with Jacobi.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
-  // Cholesky: factorises K now (if not yet) and returns the seconds it took (0 when it was
-  // already factorised); the other kinds set nothing up here and return 0. Cancellable; refused
-  // before it allocates when the factor would not fit (SparseCholesky.h).
+  // Auto: chooses the kind first. Cholesky: factorises K now (if not yet; a factor of exactly K
+  // kept in SolverCache is taken instead) and returns the seconds it took (0 when it was already
+  // set up). Backend petsc: distributes K and sets up the preconditioner (an AMG hierarchy) on
+  // every rank. MINRES and CG of the eigen backend set nothing up and return 0. Cancellable;
+  // refused before it allocates when the factor would not fit (SparseCholesky.h).
   double setUp();
+  // Auto: chooses now (cholesky: analysed, not yet factorised), without setting up. Others: nothing.
+  void choose();
   // Cholesky only: X = K^-1 B for every column of B at once (the queries then describe the
   // worst column). InputError for the iterative kinds.
   void solveBlock(const Eigen::MatrixXd& B, Eigen::MatrixXd& X);
   bool direct() const { return params_.kind == SolverKind::Cholesky; }
+  // Whether setUp() may analyse and factorise (cholesky, or auto with backend eigen).
+  bool mayFactorize() const {
+    return direct() || (params_.kind == SolverKind::Auto && params_.backend == SolverBackend::Eigen);
+  }
   // Cholesky, after setUp(): the factor (nullptr before).
   const SparseCholesky* cholesky() const { return cholesky_.get(); }
+  // The factor was taken from SolverCache (no factorisation was paid for it here).
+  bool factorReused() const { return reused_; }
+  // Auto: "auto: <kind> (<why>)" after the choice; empty otherwise.
+  const std::string& choiceNote() const { return choiceNote_; }
 
   // --- query ---
   SolverStatus status() const { return status_; }
@@ -150,6 +179,7 @@ private:
 
   void solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x);
   void checkOperator(Eigen::Index rhsRows) const;
+  void resetSetUp();
 
   SolverParams params_;
   const SparseMatrix* K_ = nullptr;
@@ -157,6 +187,11 @@ private:
   std::shared_ptr<SparseCholesky> cholesky_; // Cholesky: the factor, reused
   Monitor monitor_;
   Progress* progress_ = nullptr;
+  bool reportFraction_ = true;
+  bool autoRequested_ = false;
+  bool reused_ = false;
+  int64_t rightHandSides_ = 1;
+  std::string choiceNote_;
 
   SolverStatus status_ = SolverStatus::NotRun;
   int64_t iterations_ = 0;

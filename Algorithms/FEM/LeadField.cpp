@@ -35,6 +35,27 @@ size_t transferBlockSize(int64_t dofs) {
   return size_t(std::clamp(fits, 1.0, 16.0));
 }
 
+double setUpTransferSolver(IterativeSolver& solver, Progress& progress, std::vector<std::string>& notes) {
+  const bool petsc = solver.params().backend == SolverBackend::Petsc;
+  if (!solver.mayFactorize() && !petsc) return 0.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  progress.beginStage(petsc ? "set up" : "factorize");
+  solver.setUp();
+  if (!solver.choiceNote().empty()) notes.push_back(solver.choiceNote());
+  if (const SparseCholesky* f = solver.cholesky()) {
+    std::ostringstream m;
+    m << "cholesky: " << f->ordering() << " ordering, " << f->factorNonzeros() << " nonzeros in L ("
+      << formatBytes(f->factorBytes()) << "), " << f->flops() << " flops; ";
+    if (solver.factorReused())
+      m << "the factor was kept from an earlier solve of this system (no factorisation)";
+    else
+      m << "analysis " << f->analyzeSeconds() << " s, numeric factorisation " << f->factorizeSeconds() << " s";
+    notes.push_back(m.str());
+  }
+  progress.endStage();
+  return secondsSince(t0);
+}
+
 void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
                       std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress) {
   if (labels.empty() == points.empty())
@@ -166,25 +187,15 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   progress.endStage();
 
   // --- one solve per electrode (a direct solver: the factorisation, then blocks of them) ---
+  std::vector<size_t> toSolve; // V_e - V_g = 0 for the ground's vertex
+  for (size_t e = 0; e < ne; ++e)
+    if (res.vertex[e] != groundVertex) toSolve.push_back(e);
   IterativeSolver solver(params.solver);
   solver.setOperator(sys.K);
-  NullProgress quiet; // the solver's own fraction would hide the per-electrode one
-  solver.setProgress(&quiet);
-  if (solver.direct()) {
-    t0 = std::chrono::steady_clock::now();
-    progress.beginStage("factorize");
-    solver.setProgress(&progress); // cancellable while it factorises
-    solver.setUp();
-    solver.setProgress(&quiet);
-    const SparseCholesky& f = *solver.cholesky();
-    std::ostringstream m;
-    m << "cholesky: " << f.ordering() << " ordering, " << f.factorNonzeros() << " nonzeros in L ("
-      << formatBytes(f.factorBytes()) << "), " << f.flops() << " flops; analysis " << f.analyzeSeconds()
-      << " s, numeric factorisation " << f.factorizeSeconds() << " s";
-    res.notes.push_back(m.str());
-    progress.endStage();
-    res.setupSeconds = secondsSince(t0);
-  }
+  solver.setRightHandSides(int64_t(toSolve.size()));
+  solver.setProgress(&progress, false); // cancellable; the fraction is the electrodes'
+  res.setupSeconds = setUpTransferSolver(solver, progress, res.notes);
+  res.solverUsed = solverKindName(solver.params().kind);
   t0 = std::chrono::steady_clock::now();
   progress.beginStage("solve");
   res.matrix = Eigen::MatrixXd::Zero(Eigen::Index(ne), Eigen::Index(3 * ns));
@@ -193,10 +204,7 @@ LeadFieldResult computeLeadField(const TetMesh& mesh, const LeadFieldParams& par
   // Subtraction: every electrode's solution, for the sources' loads after the solves.
   Eigen::MatrixXd solutions = subtraction ? Eigen::MatrixXd::Zero(Eigen::Index(np), Eigen::Index(ne)) : Eigen::MatrixXd();
   double mSeconds = 0;
-  std::vector<size_t> toSolve; // V_e - V_g = 0 for the ground's vertex
-  for (size_t e = 0; e < ne; ++e)
-    if (res.vertex[e] != groundVertex) toSolve.push_back(e);
-  // Direct: blocks of right-hand sides (transferBlockSize); a cancel is seen between blocks.
+  // Direct: blocks of right-hand sides (transferBlockSize), each cancellable while it runs.
   const size_t block = solver.direct() ? transferBlockSize(res.dofs) : 1;
   Eigen::MatrixXd B, X;
   Eigen::VectorXd x;

@@ -19,9 +19,9 @@
 // order, or the points `sourcePoints` (each located in its tet; a point outside the mesh is an
 // InputError naming it). Units: mm, S/m, mA mm, V.
 //
-// Stages: sources, assemble, snap electrodes, [factorize: solver = cholesky only,] solve (one per
-// electrode, fraction reported; cholesky: blocks of transferBlockSize() electrodes), lead field;
-// they sum to the whole call.
+// Stages: sources, assemble, snap electrodes, [factorize (cholesky, auto) or set up (petsc):
+// setUpTransferSolver,] solve (one per electrode, fraction reported; cholesky: blocks of
+// transferBlockSize() electrodes), lead field; they sum to the whole call.
 // Errors (InputError): no electrodes, both or neither source kind, a source label absent from the
 // mesh, electrodes in different connected pieces of the mesh, an unknown reference name, bad
 // conductivities or solver parameters, not enough memory for the matrix (the message says how
@@ -65,6 +65,7 @@ struct LeadFieldResult {
   int64_t dofs = 0, nnz = 0, solves = 0, iterationsTotal = 0, iterationsMax = 0;
   int64_t ranks = 1;
   bool converged = true;
+  std::string solverUsed;            // the solver that ran (auto: the one it chose)
   double assembleSeconds = 0, setupSeconds = 0, solveSeconds = 0, matrixSeconds = 0; // setup: a direct solver's factorisation
   std::vector<std::string> notes;
 };
@@ -91,6 +92,14 @@ void countTransferSolve(Result& res, const IterativeSolver& solver, const std::s
 // label absent from the mesh, a point outside it (numbered from 1).
 void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
                       std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress);
+
+// Sets up a transfer-matrix solver (its operator, right-hand-side count and progress given) as a
+// stage of its own and returns its seconds: "factorize" for solver cholesky or auto with backend
+// eigen (auto's choice and CHOLMOD's analysis, then the numeric factorisation when cholesky is
+// chosen; nothing numeric when SolverCache holds the factor of this K), "set up" for backend
+// petsc (distribution and preconditioner on every rank); none for the eigen iterative solvers.
+// Appends the choice and the factor's figures to `notes`.
+double setUpTransferSolver(IterativeSolver& solver, Progress& progress, std::vector<std::string>& notes);
 
 // Right-hand sides a direct solver takes per pass in a transfer matrix of `dofs` unknowns: as many
 // as fit in a twentieth of the memory left, 1 to 16 (more saved no time on the 1 mm head, and 64

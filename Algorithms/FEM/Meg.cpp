@@ -406,58 +406,65 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
   res.primary = Eigen::MatrixXd::Zero(Eigen::Index(nc), Eigen::Index(3 * ns));
   IterativeSolver solver(params.solver);
   solver.setOperator(sys.K);
-  NullProgress quiet;
-  if (solver.direct()) { // the factorisation once, before the sensors' solves
-    const auto tf = std::chrono::steady_clock::now();
-    progress.beginStage("factorize");
-    solver.setProgress(&progress);
-    solver.setUp();
-    progress.endStage();
-    res.setupSeconds = secondsSince(tf);
-  }
+  solver.setRightHandSides(int64_t(nc));
+  solver.setProgress(&progress, false); // cancellable; the fraction is the sensors'
+  res.setupSeconds = setUpTransferSolver(solver, progress, res.notes); // the factorisation once
+  res.solverUsed = solverKindName(solver.params().kind);
   progress.beginStage("solve");
   const SigmaLookup sigma(mesh, params.conductivities);
-  solver.setProgress(&quiet);
-  Eigen::VectorXd x;
   const auto& q = mesh.tets;
   const DipoleLoads loads = dipoleLoads(mesh, res.sources, res.sourceTets, params.sourceModel);
   double kSeconds = 0, mSeconds = 0, sSeconds = 0;
-  for (size_t c = 0; c < nc; ++c) {
+  // A direct solver takes blocks of sensors (transferBlockSize), the iterative ones one at a time.
+  const size_t block = solver.direct() ? transferBlockSize(res.dofs) : 1;
+  Eigen::MatrixXd B, X;
+  Eigen::VectorXd x;
+  for (size_t first = 0; first < nc; first += block) {
     progress.checkCancel();
-    const MegSensor& sensor = params.sensors[c];
+    const size_t count = std::min(block, nc - first);
     // Adjoint load c_a = -k sum_T (sigma_T grad l_a) . H_T, scattered in tet order.
     auto tk = std::chrono::steady_clock::now();
-    const std::vector<Vec3> H = megSensorKernels(mesh, sensor, progress);
-    Eigen::VectorXd load = Eigen::VectorXd::Zero(Eigen::Index(np));
-    for (size_t t = 0; t < nt; ++t) {
-      const TetGradients g = tetGradients(mesh, t);
-      const Vec3 sH = mul(sigma(mesh.materials[t]), H[t]); // sigma symmetric: (sigma g) . H = g . (sigma H)
-      for (int a = 0; a < 4; ++a) load[q[t][size_t(a)]] -= kMegFemtoTesla * dot(g.grad[size_t(a)], sH);
-    }
-    Eigen::VectorXd b(res.dofs);
-    for (size_t v = 0; v < np; ++v)
-      if (sys.reducedIndex[v] >= 0) b[sys.reducedIndex[v]] = load[Eigen::Index(v)];
-    kSeconds += secondsSince(tk);
-
-    const auto ts = std::chrono::steady_clock::now();
-    solver.solve(b, x);
-    sSeconds += secondsSince(ts);
-    countTransferSolve(res, solver, "sensor " + sensor.name);
-    const auto tm = std::chrono::steady_clock::now();
-    const Eigen::VectorXd u = sys.expand(x);
-#pragma omp parallel for schedule(static)
-    for (int64_t s = 0; s < int64_t(ns); ++s) {
-      const Vec3& r0 = res.sources[size_t(s)];
-      for (int k = 0; k < 3; ++k) {
-        Vec3 e{0, 0, 0};
-        e[size_t(k)] = 1.0;
-        const double b0 = sensorSignal(sensor, [&](const Vec3& r) { return megPrimaryField(r, r0, e); });
-        res.primary(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0;
-        res.matrix(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0 + loads.apply(size_t(3 * s + k), u);
+    B = Eigen::MatrixXd::Zero(res.dofs, Eigen::Index(count));
+    for (size_t j = 0; j < count; ++j) {
+      const std::vector<Vec3> H = megSensorKernels(mesh, params.sensors[first + j], progress);
+      Eigen::VectorXd load = Eigen::VectorXd::Zero(Eigen::Index(np));
+      for (size_t t = 0; t < nt; ++t) {
+        const TetGradients g = tetGradients(mesh, t);
+        const Vec3 sH = mul(sigma(mesh.materials[t]), H[t]); // sigma symmetric: (sigma g) . H = g . (sigma H)
+        for (int a = 0; a < 4; ++a) load[q[t][size_t(a)]] -= kMegFemtoTesla * dot(g.grad[size_t(a)], sH);
       }
+      for (size_t v = 0; v < np; ++v)
+        if (sys.reducedIndex[v] >= 0) B(sys.reducedIndex[v], Eigen::Index(j)) = load[Eigen::Index(v)];
     }
-    mSeconds += secondsSince(tm);
-    progress.report(double(c + 1) / double(nc));
+    kSeconds += secondsSince(tk);
+    auto ts = std::chrono::steady_clock::now();
+    if (solver.direct()) solver.solveBlock(B, X);
+    sSeconds += secondsSince(ts);
+    for (size_t j = 0; j < count; ++j) {
+      const size_t c = first + j;
+      const MegSensor& sensor = params.sensors[c];
+      if (!solver.direct()) {
+        ts = std::chrono::steady_clock::now();
+        solver.solve(B.col(Eigen::Index(j)), x);
+        sSeconds += secondsSince(ts);
+      }
+      countTransferSolve(res, solver, "sensor " + sensor.name);
+      const auto tm = std::chrono::steady_clock::now();
+      const Eigen::VectorXd u = solver.direct() ? sys.expand(X.col(Eigen::Index(j))) : sys.expand(x);
+#pragma omp parallel for schedule(static)
+      for (int64_t s = 0; s < int64_t(ns); ++s) {
+        const Vec3& r0 = res.sources[size_t(s)];
+        for (int k = 0; k < 3; ++k) {
+          Vec3 e{0, 0, 0};
+          e[size_t(k)] = 1.0;
+          const double b0 = sensorSignal(sensor, [&](const Vec3& r) { return megPrimaryField(r, r0, e); });
+          res.primary(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0;
+          res.matrix(Eigen::Index(c), Eigen::Index(3 * s + k)) = b0 + loads.apply(size_t(3 * s + k), u);
+        }
+      }
+      mSeconds += secondsSince(tm);
+      progress.report(double(c + 1) / double(nc));
+    }
   }
   progress.endStage();
   res.kernelSeconds = kSeconds;

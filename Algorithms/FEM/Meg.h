@@ -168,6 +168,7 @@ struct MegLeadFieldResult {
   int64_t dofs = 0, nnz = 0, solves = 0, iterationsTotal = 0, iterationsMax = 0, ranks = 1;
   int64_t coilsInsideMesh = 0;
   bool converged = true;
+  std::string solverUsed; // the solver that ran (auto: the one it chose)
   double assembleSeconds = 0, setupSeconds = 0, kernelSeconds = 0, solveSeconds = 0, matrixSeconds = 0; // setup: cholesky's factorisation
   std::vector<std::string> notes;
 };

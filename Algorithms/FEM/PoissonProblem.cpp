@@ -303,6 +303,10 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   solver.setProgress(&progress);
   Eigen::VectorXd x;
   if (res.dofs > 0) solver.solve(sys.b, x);
+  if (!solver.choiceNote().empty()) res.notes.push_back(solver.choiceNote());
+  if (solver.factorReused())
+    res.notes.push_back("cholesky: the factor was kept from an earlier solve of this system (no factorisation)");
+  res.solverUsed = solverKindName(solver.params().kind);
   res.status = res.dofs > 0 ? solver.status() : SolverStatus::Converged;
   res.converged = res.status == SolverStatus::Converged;
   res.iterations = solver.iterations();
@@ -312,7 +316,7 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   res.ranks = solver.ranks();
   if (!res.converged) {
     std::ostringstream m;
-    m << solverKindName(params.solver.kind) << " did not converge ("
+    m << solverKindName(solver.params().kind) << " did not converge ("
       << solverStatusName(res.status) << " after " << res.iterations
       << " iterations, relative residual " << res.relativeResidual << " > tolerance "
       << params.solver.tolerance << ")";
@@ -326,13 +330,13 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   progress.beginStage("condition");
   const bool jacobi = params.solver.preconditioner == PreconditionerKind::Jacobi;
   const bool petsc = params.solver.backend == SolverBackend::Petsc;
-  const bool direct = params.solver.kind == SolverKind::Cholesky;
+  const bool direct = solver.direct();
   if (petsc) { // PETSc keeps no Lanczos tridiagonal: the estimates below come from Eigen CG runs
     res.lanczos.method = "not available with solver_backend petsc";
   } else if (direct) { // likewise a direct solve
     res.lanczos.method = "not available with solver = cholesky";
   } else {
-    std::string what = params.solver.kind == SolverKind::Minres ? "MINRES" : "CG";
+    std::string what = solver.params().kind == SolverKind::Minres ? "MINRES" : "CG";
     what += jacobi ? " on M^-1 K, M = diag(K)" : " on K";
     res.lanczos = lanczosEstimate(solver.lanczos(), what);
   }
@@ -470,7 +474,8 @@ void writePoissonReport(const PoissonResult& r, Report& rep) {
   rep.set("unused_vertices", i64(r.unusedVertices));
   rep.set("dofs", i64(r.dofs));
   rep.set("nnz", i64(r.nnz));
-  rep.set("solver", solverKindName(r.solver.kind));
+  rep.set("solver", r.solverUsed.empty() ? std::string(solverKindName(r.solver.kind)) : r.solverUsed);
+  if (r.solver.kind == SolverKind::Auto) rep.set("solver_requested", std::string("auto"));
   rep.set("preconditioner", preconditionerKindName(r.solver.preconditioner));
   rep.set("solver_backend", solverBackendName(r.solver.backend));
   rep.set("ranks", i64(r.ranks));

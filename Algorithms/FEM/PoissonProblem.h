@@ -103,6 +103,7 @@ struct PoissonResult {
 
   SolverParams solver;
   int64_t ranks = 1;             // MPI ranks of the solve (petsc backend; 1 for eigen)
+  std::string solverUsed;        // the solver that ran (solver = auto: the one it chose)
   SolverStatus status = SolverStatus::NotRun;
   bool converged = false;
   int64_t iterations = 0;

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -37,6 +38,7 @@ struct SparseCholesky::State {
   cholmod_factor* L = nullptr;
   std::atomic<bool> done{false};
   std::atomic<bool> factorized{false};
+  std::mutex solveMutex; // cholmod_common is not thread-safe: one solve at a time
   int status = CHOLMOD_OK;
   int64_t minor = 0; // first column that is not positive definite (== n when all are)
   double analyzeSeconds = 0, factorizeSeconds = 0;
@@ -142,31 +144,90 @@ void SparseCholesky::factorize(Progress& progress) {
   progress.checkCancel();
 }
 
-void SparseCholesky::solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X) const {
+namespace {
+// One block of triangular solves, owned jointly by the caller and (with a progress) its worker.
+struct SolveJob {
+  Eigen::MatrixXd B, X;
+  std::atomic<bool> done{false};
+  int status = CHOLMOD_OK;
+  bool ok = false;
+};
+
+void runSolve(SparseCholesky::State& s, SolveJob& job) {
+  std::lock_guard<std::mutex> lock(s.solveMutex);
+  cholmod_dense b;
+  std::memset(&b, 0, sizeof b);
+  b.nrow = size_t(job.B.rows());
+  b.ncol = size_t(job.B.cols());
+  b.nzmax = b.nrow * b.ncol;
+  b.d = b.nrow;
+  b.x = job.B.data();
+  b.xtype = CHOLMOD_REAL;
+  b.dtype = CHOLMOD_DOUBLE;
+  cholmod_dense* x = cholmod_l_solve(CHOLMOD_A, s.L, &b, &s.c);
+  job.status = s.c.status;
+  if (x) {
+    job.X.resize(job.B.rows(), job.B.cols());
+    std::memcpy(job.X.data(), x->x, sizeof(double) * b.nrow * b.ncol);
+    cholmod_l_free_dense(&x, &s.c);
+    job.ok = true;
+  }
+}
+} // namespace
+
+void SparseCholesky::solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X, Progress* progress) const {
   if (!factorized()) throw InputError("cholesky: factorise the matrix before solving");
-  State& s = *s_;
   const int64_t n = rows();
   if (B.rows() != n)
     throw InputError("cholesky: right-hand side has " + std::to_string(B.rows()) + " rows for a matrix of size " +
                      std::to_string(n));
-  X.resize(B.rows(), B.cols());
-  if (B.cols() == 0) return;
-  cholmod_dense b;
-  std::memset(&b, 0, sizeof b);
-  b.nrow = size_t(n);
-  b.ncol = size_t(B.cols());
-  b.nzmax = b.nrow * b.ncol;
-  b.d = b.nrow;
-  b.x = const_cast<double*>(B.data());
-  b.xtype = CHOLMOD_REAL;
-  b.dtype = CHOLMOD_DOUBLE;
-  // cholmod_common is not thread-safe: one solve at a time on this factor.
-  cholmod_dense* x = cholmod_l_solve(CHOLMOD_A, s.L, &b, &s.c);
-  if (!x)
-    throw ProcessingError("cholesky: the triangular solves failed (CHOLMOD status " + std::to_string(s.c.status) +
-                          (s.c.status == CHOLMOD_OUT_OF_MEMORY ? ", out of memory)" : ")"));
-  std::memcpy(X.data(), x->x, sizeof(double) * size_t(n) * size_t(B.cols()));
-  cholmod_l_free_dense(&x, &s.c);
+  if (B.cols() == 0) {
+    X.resize(B.rows(), 0);
+    return;
+  }
+  if (progress) progress->checkCancel();
+  auto job = std::make_shared<SolveJob>();
+  job->B = B;
+  if (!progress) {
+    runSolve(*s_, *job);
+  } else {
+    std::shared_ptr<State> s = s_;
+    std::thread worker([s, job] {
+      runSolve(*s, *job);
+      job->done = true;
+    });
+    while (!job->done) {
+      if (progress->cancelRequested()) {
+        worker.detach(); // it finishes on its own copies and frees them with the last reference
+        throw Cancelled();
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    worker.join();
+  }
+  if (!job->ok)
+    throw ProcessingError("cholesky: the triangular solves failed (CHOLMOD status " + std::to_string(job->status) +
+                          (job->status == CHOLMOD_OUT_OF_MEMORY ? ", out of memory)" : ")"));
+  X = std::move(job->X);
+}
+
+bool SparseCholesky::sameMatrix(const SparseMatrix& K) const {
+  const cholmod_sparse* A = s_->A;
+  if (!A || !K.isCompressed() || K.rows() != int64_t(A->nrow) || K.cols() != int64_t(A->ncol)) return false;
+  const auto* p = static_cast<const SuiteSparse_long*>(A->p);
+  const auto* idx = static_cast<const SuiteSparse_long*>(A->i);
+  const auto* x = static_cast<const double*>(A->x);
+  const int64_t n = K.rows();
+  for (int64_t j = 0; j < n; ++j) {
+    int64_t k = p[j];
+    for (SparseMatrix::InnerIterator it(K, Eigen::Index(j)); it; ++it) {
+      if (it.row() < j) continue;
+      if (k >= p[j + 1] || idx[k] != SuiteSparse_long(it.row()) || x[k] != it.value()) return false;
+      ++k;
+    }
+    if (k != p[j + 1]) return false;
+  }
+  return true;
 }
 
 bool SparseCholesky::factorized() const { return s_->factorized; }
@@ -184,6 +245,6 @@ const char* SparseCholesky::ordering() const { return s_->L ? orderingName(s_->L
 double SparseCholesky::analyzeSeconds() const { return s_->analyzeSeconds; }
 double SparseCholesky::factorizeSeconds() const { return s_->factorizeSeconds; }
 
-double SparseCholesky::solveBytes(int64_t n, int64_t k) { return 3.0 * 8.0 * double(n) * double(k); }
+double SparseCholesky::solveBytes(int64_t n, int64_t k) { return 4.0 * 8.0 * double(n) * double(k); }
 
 } // namespace tetflow

@@ -43,7 +43,15 @@ public:
   void factorize(Progress& progress);
 
   // X = K^-1 B for a block of right-hand sides (B: n x k). Two triangular solves per column.
-  void solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X) const;
+  // Solves on one factor are serialised (a factor may be shared, SolverCache.h). With `progress`
+  // the solves run on a worker thread while the caller polls cancelRequested() every 20 ms, so a
+  // block of many columns is cancelled within that time (throws Cancelled; the worker finishes
+  // on its own copy of B in the background).
+  void solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X, Progress* progress = nullptr) const;
+
+  // True when K is exactly the matrix this factor was analysed from (size, pattern and values of
+  // the lower triangle): one pass over K.
+  bool sameMatrix(const SparseMatrix& K) const;
 
   bool factorized() const;
   int64_t rows() const;
@@ -58,8 +66,9 @@ public:
   // workspace).
   static double solveBytes(int64_t n, int64_t k);
 
+  struct State; // CHOLMOD's objects (SparseCholesky.cpp)
+
 private:
-  struct State;
   std::shared_ptr<State> s_; // shared with a factorisation worker that may outlive a cancel
 };
 

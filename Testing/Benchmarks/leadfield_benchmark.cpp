@@ -1,9 +1,11 @@
 // EEG lead field benchmark (issue "the simulation at the speed of the mesh"): one solver on one
 // head mesh, as ComputeLeadField runs it (computeLeadField, LeadField.h).
 //
-//   leadfield_benchmark MESH --solver minres|cg|cholesky [--preconditioner jacobi|none|gamg|hypre]
+//   leadfield_benchmark MESH --solver minres|cg|cholesky|auto [--preconditioner jacobi|none|gamg|hypre]
 //                       [--backend eigen|petsc] [--electrodes 128] [--sources 5000]
 //                       [--scalp 1] [--grey 4] [--check K] [--tolerance 1e-8]
+//   leadfield_benchmark MESH --choose K      what solver = auto picks for K right-hand sides on
+//                                            the lead field's system (no solve)
 //
 // Electrodes: boundary vertices of `--scalp` tets in the upper 60 % of the
 // head, spread by farthest-point sampling from the top vertex; the first is the reference (its
@@ -13,8 +15,9 @@
 // Prints one line of key=value figures: unknowns, solves, seconds per stage (sources, assemble,
 // snap, factorize, solve, lead field), per solve, iterations, and with --check K the largest
 // relative difference of each lead-field column (restricted to electrodes 1..K) against MINRES +
-// Jacobi at tolerance --check-tolerance (1e-12). Testing/Benchmarks/leadfield_benchmark.sh runs it per solver under
-// /usr/bin/time (peak memory) and writes results/leadfield.txt.
+// Jacobi at tolerance --check-tolerance (1e-12). With --solver auto the line names the solver it
+// chose and why. Testing/Benchmarks/leadfield_benchmark.sh runs it per solver under /usr/bin/time
+// (peak memory) and writes results/leadfield.txt; solver_scaling.sh runs it on a family of meshes.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -25,7 +28,10 @@
 
 #include "Algorithms/Core/Errors.h"
 #include "Algorithms/FEM/Assembly.h"
+#include "Algorithms/FEM/BoundaryConditions.h"
 #include "Algorithms/FEM/LeadField.h"
+#include "Algorithms/FEM/SolverChoice.h"
+#include "Algorithms/FEM/SparseCholesky.h"
 #include "Algorithms/IO/MeshIO.h"
 
 using namespace tetflow;
@@ -34,7 +40,7 @@ namespace {
 
 struct Options {
   std::string mesh, solver = "minres", preconditioner = "jacobi", backend = "eigen";
-  int electrodes = 128, sources = 5000, scalp = 1, grey = 4, check = 0;
+  int electrodes = 128, sources = 5000, scalp = 1, grey = 4, check = 0, choose = 0;
   double tolerance = 1e-8, checkTolerance = 1e-12;
 };
 
@@ -54,6 +60,7 @@ Options parse(int argc, char** argv) {
     else if (a == "--scalp") o.scalp = std::stoi(next());
     else if (a == "--grey") o.grey = std::stoi(next());
     else if (a == "--check") o.check = std::stoi(next());
+    else if (a == "--choose") o.choose = std::stoi(next());
     else if (a == "--tolerance") o.tolerance = std::stod(next());
     else if (a == "--check-tolerance") o.checkTolerance = std::stod(next());
     else if (o.mesh.empty() && a[0] != '-') o.mesh = a;
@@ -131,6 +138,28 @@ int main(int argc, char** argv) {
     p.solver.backend = solverBackendFromName(o.backend);
     p.solver.tolerance = o.tolerance;
     NullProgress np;
+    if (o.choose > 0) {
+      // The lead field's reduced system: the first electrode's vertex (and unused vertices) at 0 V.
+      const SparseMatrix K = assembleStiffness(mesh, p.conductivities, np);
+      DirichletSet dir(mesh.numPoints());
+      dir.set(size_t(snapToBoundary(mesh, {p.electrodes[0].position})[0].vertex), 0.0);
+      std::vector<uint8_t> used(mesh.numPoints(), 0);
+      for (const auto& t : mesh.tets)
+        for (int32_t v : t) used[size_t(v)] = 1;
+      for (size_t v = 0; v < used.size(); ++v)
+        if (!used[v]) dir.set(v, 0.0);
+      const ReducedSystem sys = eliminateDirichlet(K, Eigen::VectorXd::Zero(Eigen::Index(mesh.numPoints())), dir);
+      SolverParams sp = p.solver;
+      sp.kind = SolverKind::Auto;
+      t0 = std::chrono::steady_clock::now();
+      const SolverChoice c = chooseSolver(sys.K, sp, o.choose, np);
+      std::printf("choose=%d dofs=%lld nnz=%lld picked=%s choose_s=%.2f predicted_cholesky_s=%.1f "
+                  "predicted_iterative_s=%.1f note=\"%s\"\n",
+                  o.choose, (long long)sys.K.rows(), (long long)sys.K.nonZeros(), solverKindName(c.kind),
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                  c.predictedCholeskySeconds, c.predictedIterativeSeconds, c.note.c_str());
+      return 0;
+    }
     t0 = std::chrono::steady_clock::now();
     const LeadFieldResult r = computeLeadField(mesh, p, np);
     np.endStage();
@@ -146,8 +175,8 @@ int main(int argc, char** argv) {
       std::printf(" %s_s=%.2f", key.c_str(), st.seconds);
       stages += st.seconds;
     }
-    std::printf(" stages_sum_s=%.2f solves=%lld per_solve_s=%.3f iterations_mean=%.1f iterations_max=%lld converged=%d",
-                stages, (long long)r.solves, r.solves ? r.solveSeconds / double(r.solves) : 0.0,
+    std::printf(" stages_sum_s=%.2f solves=%lld ran=%s per_solve_s=%.3f iterations_mean=%.1f iterations_max=%lld converged=%d",
+                stages, (long long)r.solves, r.solverUsed.c_str(), r.solves ? r.solveSeconds / double(r.solves) : 0.0,
                 r.solves ? double(r.iterationsTotal) / double(r.solves) : 0.0, (long long)r.iterationsMax,
                 r.converged ? 1 : 0);
     if (o.check > 0) {
@@ -165,7 +194,7 @@ int main(int argc, char** argv) {
                   o.checkTolerance, worst, ref.solves ? double(ref.iterationsTotal) / double(ref.solves) : 0.0);
     }
     for (const auto& n : r.notes)
-      if (n.rfind("cholesky: ", 0) == 0) std::printf(" note=\"%s\"", n.c_str());
+      if (n.rfind("cholesky: ", 0) == 0 || n.rfind("auto: ", 0) == 0) std::printf(" note=\"%s\"", n.c_str());
     std::printf("\n");
     return 0;
   } catch (const std::exception& e) {

@@ -38,7 +38,7 @@ PetscLinearSolver::PetscLinearSolver(const SparseMatrix&, const SolverParams&) {
 }
 PetscLinearSolver::~PetscLinearSolver() = default;
 bool PetscLinearSolver::sameSystem(const SparseMatrix&, const SolverParams&) const { return false; }
-PetscLinearSolver::Outcome PetscLinearSolver::solve(const Eigen::VectorXd&, Eigen::VectorXd&, Progress*) {
+PetscLinearSolver::Outcome PetscLinearSolver::solve(const Eigen::VectorXd&, Eigen::VectorXd&, Progress*, bool) {
   return {};
 }
 int PetscLinearSolver::ranks() const { return 1; }
@@ -145,6 +145,7 @@ int64_t rowBegin(int64_t n, int rank, int size) { return n * rank / size; }
 struct TestContext {
   void* defaultContext = nullptr;
   Progress* progress = nullptr; // rank 0 only
+  bool reportFraction = true;
   double tolerance = 1e-8;
   double initialNorm = 0.0;
   bool cancelled = false;
@@ -157,7 +158,7 @@ PetscErrorCode convergenceTest(KSP ksp, PetscInt it, PetscReal rnorm, KSPConverg
   if (c->progress) {
     cancel = c->progress->cancelRequested() ? 1 : 0;
     if (it == 0) c->initialNorm = double(rnorm);
-    if (it > 0 && (it & 7) == 0 && c->initialNorm > 0) {
+    if (c->reportFraction && it > 0 && (it & 7) == 0 && c->initialNorm > 0) {
       const double rel = double(rnorm) / c->initialNorm;
       const double frac = rel > 0 ? std::log(rel) / std::log(c->tolerance) : 1.0;
       c->progress->report(std::clamp(frac, 0.0, 1.0));
@@ -236,12 +237,14 @@ struct Engine {
   }
 
   // Local block of b in, whole x out on rank 0 (others: x0 has length 0).
-  void solve(const double* localB, Progress* progress, PetscLinearSolver::Outcome* out, double* xOut) {
+  void solve(const double* localB, Progress* progress, bool reportFraction, PetscLinearSolver::Outcome* out,
+             double* xOut) {
     PetscScalar* p = nullptr;
     TF_PETSC(VecGetArray(b, &p));
     std::copy(localB, localB + (end - begin), p);
     TF_PETSC(VecRestoreArray(b, &p));
     test->progress = progress;
+    test->reportFraction = reportFraction;
     test->cancelled = false;
     TF_PETSC(KSPSolve(ksp, b, x));
     test->progress = nullptr;
@@ -370,7 +373,8 @@ bool PetscLinearSolver::sameSystem(const SparseMatrix& K, const SolverParams& p)
 
 int PetscLinearSolver::ranks() const { return commSize(); }
 
-PetscLinearSolver::Outcome PetscLinearSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, Progress* progress) {
+PetscLinearSolver::Outcome PetscLinearSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, Progress* progress,
+                                                    bool reportFraction) {
   std::lock_guard<std::mutex> lock(g_mpiMutex);
   const int64_t n = impl_->engine.n;
   if (b.size() != n) throw InputError("PETSc backend: right-hand side size does not match the matrix");
@@ -384,7 +388,7 @@ PetscLinearSolver::Outcome PetscLinearSolver::solve(const Eigen::VectorXd& b, Ei
   }
   Outcome out;
   x.resize(n);
-  impl_->engine.solve(local.data(), progress, &out, x.data());
+  impl_->engine.solve(local.data(), progress, reportFraction, &out, x.data());
   return out;
 }
 
@@ -442,7 +446,7 @@ int ParallelSession::runWorker() {
         std::vector<double> local(size_t(e.end - e.begin));
         MPI_Scatterv(nullptr, nullptr, nullptr, MPI_DOUBLE, local.data(), int(local.size()), MPI_DOUBLE, 0,
                      PETSC_COMM_WORLD);
-        e.solve(local.data(), nullptr, nullptr, nullptr);
+        e.solve(local.data(), nullptr, false, nullptr, nullptr);
         break;
       }
       case kRelease: engines.erase(c[1]); break;

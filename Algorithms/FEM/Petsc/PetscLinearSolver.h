@@ -61,7 +61,8 @@ public:
   PetscLinearSolver& operator=(const PetscLinearSolver&) = delete;
 
   bool sameSystem(const SparseMatrix& K, const SolverParams& params) const;
-  Outcome solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, Progress* progress);
+  // progress: cancellation (and, with reportFraction, the solve's fraction).
+  Outcome solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, Progress* progress, bool reportFraction = true);
   int ranks() const;
 
 private:

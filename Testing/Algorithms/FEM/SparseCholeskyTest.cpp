@@ -162,7 +162,7 @@ TEST(SparseCholesky, LeadFieldsAgreeWithTightMinresForEverySourceModel) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> uy(0.0, n[1]), uz(0.0, n[2]), ux(1.5, n[0] - 1.5);
     for (int e = 0; e < 10; ++e) // on the x = 0 and x = hi faces and the y = 0 face
-      p.electrodes.push_back({"E" + std::to_string(e),
+      p.electrodes.push_back({std::string("E").append(std::to_string(e)),
                               e < 4 ? Vec3{0.0, uy(rng), uz(rng)}
                                     : e < 7 ? Vec3{double(n[0]), uy(rng), uz(rng)} : Vec3{ux(rng), 0.0, uz(rng)},
                               e + 1});
