@@ -251,6 +251,8 @@ void IterativeSolver::solvePetsc(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   iterations_ = o.iterations;
   relres_ = o.relativeResidual;
   history_ = o.history;
+  kspEigenMin_ = o.eigenMin;
+  kspEigenMax_ = o.eigenMax;
   lanczos_ = {};
   if (monitor_)
     for (size_t k = 1; k < history_.size(); ++k) monitor_(int64_t(k), history_[k]);

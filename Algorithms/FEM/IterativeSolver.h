@@ -46,6 +46,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -171,6 +172,10 @@ public:
   const LanczosTridiagonal& lanczos() const { return lanczos_; }
   double seconds() const { return seconds_; }
   int ranks() const; // MPI ranks of the last solve (1 for eigen)
+  // Backend petsc, CG: PETSc's estimate of the extreme eigenvalues of M^-1 K from the last solve's
+  // Lanczos coefficients (with gamg or hypre: of the AMG-preconditioned operator); NaN otherwise.
+  double kspEigenMin() const { return kspEigenMin_; }
+  double kspEigenMax() const { return kspEigenMax_; }
 
 private:
   void runMinres(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd& minv);
@@ -198,6 +203,8 @@ private:
   double relres_ = 0.0;
   double trueRes_ = 0.0;
   double seconds_ = 0.0;
+  double kspEigenMin_ = std::numeric_limits<double>::quiet_NaN();
+  double kspEigenMax_ = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> history_;
   LanczosTridiagonal lanczos_;
 };

@@ -331,8 +331,16 @@ PoissonResult solvePoisson(const TetMesh& mesh, const PoissonParams& params, Pro
   const bool jacobi = params.solver.preconditioner == PreconditionerKind::Jacobi;
   const bool petsc = params.solver.backend == SolverBackend::Petsc;
   const bool direct = solver.direct();
-  if (petsc) { // PETSc keeps no Lanczos tridiagonal: the estimates below come from Eigen CG runs
-    res.lanczos.method = "not available with solver_backend petsc";
+  if (petsc && std::isfinite(solver.kspEigenMin())) { // PETSc's CG: its own Lanczos estimate
+    res.lanczos.lambdaMin = solver.kspEigenMin();
+    res.lanczos.lambdaMax = solver.kspEigenMax();
+    res.lanczos.kappa = res.lanczos.lambdaMax / res.lanczos.lambdaMin;
+    res.lanczos.converged = true;
+    res.lanczos.operations = res.iterations;
+    res.lanczos.method = std::string("PETSc CG's Lanczos estimate (KSPComputeExtremeSingularValues) on M^-1 K, M = ") +
+                         preconditionerKindName(params.solver.preconditioner);
+  } else if (petsc) { // PETSc's MINRES keeps no Lanczos tridiagonal: the estimates below come from Eigen CG runs
+    res.lanczos.method = "not available with solver_backend petsc and solver minres (cg gives PETSc's estimate)";
   } else if (direct) { // likewise a direct solve
     res.lanczos.method = "not available with solver = cholesky";
   } else {

@@ -1,19 +1,23 @@
 #!/bin/bash
 # Solver scaling table (issue "the simulation at the speed of the mesh", README "Solvers: which
-# one and when"): one family of meshes, the layered head of layered_head.cpp at 2 mm and 1 mm
-# voxels meshed by Nets/mesh_labels.srn at several cell sizes (0.1 M to 2 M unknowns), and per
-# mesh, as leadfield_benchmark runs a lead field (128 scalp electrodes, 5 000 grey sources):
+# one and when"): one family of meshes, the 1 mm layered head of layered_head.cpp meshed by
+# Nets/mesh_labels.srn's regular lattice at cell sizes 6 to 1.75 mm without thin-layer refinement
+# (refine_thin_layers none: the unknowns then follow the cell size, 0.1 M to 2 M), and per mesh,
+# as leadfield_benchmark runs a lead field (128 scalp electrodes, 5 000 grey sources):
 #   cholesky     16 solves: analysis + numeric factorisation, seconds per right-hand side
 #   minres       MINRES + Jacobi, 2 solves: seconds and iterations per solve
 #   hypre        solver_backend petsc, CG + BoomerAMG on one rank, 4 solves: set-up, per solve
 #   auto         what solver = auto picks for 1 and for 127 right-hand sides (--choose)
 # each under /usr/bin/time for its peak resident memory. Writes results/solver_scaling.txt (or $1).
-#   MESHES="2:4 1:6 1:4 ..."  voxel:cell_size pairs (default below)   METHODS="cholesky minres hypre auto"
+#   MESHES="6 4 ..."  cell sizes (mm; default below); REFINE=none|separating; VOXEL=1|2
+#   METHODS="cholesky minres hypre auto"
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 BUILD=${TETFLOW_BUILD:-$ROOT/build}
 OUT=${1:-$ROOT/Testing/Benchmarks/results/solver_scaling.txt}
-MESHES=${MESHES:-"2:6 2:4 2:3 1:4 1:3"}
+MESHES=${MESHES:-"6 4 3 2.5 2 1.75"}
+REFINE=${REFINE:-none}
+VOXEL=${VOXEL:-1}
 METHODS=${METHODS:-"cholesky minres hypre auto"}
 WORK=${WORK:-$(mktemp -d)}
 mkdir -p "$WORK"
@@ -25,17 +29,16 @@ bench() { # label, args...: one leadfield_benchmark line with its peak memory
   echo "method=$label $line peak_rss_MB=$(( $(cat "$WORK/rss") / 1024 ))"
 }
 {
-  echo "# solver_scaling.sh on $(nproc) cores, $(date -u +%Y-%m-%d), layered head, Nets/mesh_labels.srn; MESHES=\"$MESHES\""
+  echo "# solver_scaling.sh on $(nproc) cores, $(date -u +%Y-%m-%d), layered head ${VOXEL} mm, Nets/mesh_labels.srn, refine_thin_layers $REFINE, cell sizes $MESHES"
   echo "# command: Testing/Benchmarks/solver_scaling.sh; seconds per stage and per solve, peak resident MB"
-  for vc in $MESHES; do
-    voxel=${vc%%:*}
-    cell=${vc##*:}
-    vol="$WORK/head${voxel}mm.nii.gz"
-    mesh="$WORK/head_v${voxel}_c${cell}.vtu"
-    [ -f "$vol" ] || "$BUILD/Testing/layered_head" "$vol" --voxel "$voxel" >/dev/null
+  vol="$WORK/head${VOXEL}mm.nii.gz"
+  [ -f "$vol" ] || "$BUILD/Testing/layered_head" "$vol" --voxel "$VOXEL" >/dev/null
+  for cell in $MESHES; do
+    mesh="$WORK/head_v${VOXEL}_c${cell}_$REFINE.vtu"
     [ -f "$mesh" ] || "$BUILD/Interface/tetflow" run "$ROOT/Nets/mesh_labels.srn" --set m1.filename="$vol" \
-      --set m2.cell_size="$cell" --set m5.filename="$mesh" --progress none >/dev/null
-    echo "# mesh voxel=${voxel}mm cell_size=$cell"
+      --set m2.cell_size="$cell" --set m2.refine_thin_layers="$REFINE" --set m5.filename="$mesh" \
+      --progress none >/dev/null
+    echo "# mesh cell_size=$cell"
     for m in $METHODS; do
       case $m in
       cholesky) bench cholesky "$mesh" --solver cholesky --electrodes 17 ;;

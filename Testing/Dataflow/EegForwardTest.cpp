@@ -258,6 +258,48 @@ TEST(EegForward, CholeskyLeadFieldsEqualDirectCholeskySolvesForEverySourceModel)
   for (const char* model : {"partial_integration", "venant", "subtraction"}) leadFieldEqualsDirectSolves(model, "cholesky");
 }
 
+// The node editor's re-run (issue 49 item 5): a dipole moved on an unchanged head re-runs only
+// its module, and its solve takes the Cholesky factor kept from the first run; the lead field
+// beside it (auto: cholesky here) keeps its own factor too. The dipole's 0 V reference is the
+// boundary vertex farthest from it, part of K: this move keeps that vertex (asserted), a move
+// that changes it changes K and factorises again.
+TEST(EegForward, AMovedDipoleOnTheSameHeadIsSolvedWithTheKeptFactor) {
+  test::TempDir dir;
+  test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 8));
+  ModuleRegistry reg;
+  registerStandardModules(reg);
+  Network net(reg);
+  addHead(net, "20 17 14 12", 1.0, 3.0);
+  addDipole(net, "fem", "0 0 5", "0 0 1");
+  net.setParameterText("fem", "solver", "cholesky");
+  net.setParameterText("fem", "condition_numbers", "false");
+  net.addModule("ComputeLeadField", "lf");
+  net.setParameterText("lf", "conductivities", kSigma);
+  net.setParameterText("lf", "electrodes_file", dir.file("el.csv"));
+  net.setParameterText("lf", "sources_file", "");
+  net.setParameterText("lf", "source_labels", "4");
+  net.connect("cl", 0, "lf", 0);
+  auto logged = [](const ModuleState& st, const std::string& what) {
+    for (const auto& m : st.messages)
+      if (m.find(what) != std::string::npos) return true;
+    return false;
+  };
+  Executor exec;
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("fem")->error << exec.state("lf")->error;
+  EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("solver")), "cholesky");
+  EXPECT_EQ(std::get<std::string>(*exec.state("lf")->report.find("solver_requested")), "auto");
+  EXPECT_FALSE(logged(*exec.state("fem"), "kept from an earlier solve"));
+  const double v0 = exec.state("fem")->report.number("potential_max");
+  const double ref0 = exec.state("fem")->report.number("reference_vertex");
+  net.setParameterText("fem", "dipole_position", "0 0 3");
+  ASSERT_TRUE(exec.execute(net).success) << exec.state("fem")->error;
+  EXPECT_FALSE(exec.state("fem")->reused);
+  EXPECT_TRUE(exec.state("lf")->reused);
+  ASSERT_EQ(exec.state("fem")->report.number("reference_vertex"), ref0) << "the move changed the reference";
+  EXPECT_TRUE(logged(*exec.state("fem"), "kept from an earlier solve")) << "no reuse noted";
+  EXPECT_NE(exec.state("fem")->report.number("potential_max"), v0) << "the moved dipole was solved";
+}
+
 TEST(EegForward, LeadFieldEqualsDirectDipoleSolves) {
   test::TempDir dir;
   test::writeBytes(dir.file("el.csv"), electrodeCsv(20.5, 12));
@@ -415,6 +457,11 @@ TEST(EegForward, PetscBackendMatchesEigen) {
     const Report& r = exec.state(id)->report;
     EXPECT_TRUE(std::get<bool>(*r.find("converged"))) << id;
     EXPECT_LT(r.number("iterations"), e.number("iterations") / 3) << id;
+    // PETSc's CG estimates the AMG-preconditioned operator's condition: far below Jacobi's.
+    const std::string method = std::get<std::string>(*r.find("kappa_lanczos_method"));
+    EXPECT_NE(method.find("PETSc CG"), std::string::npos) << method;
+    EXPECT_GE(r.number("kappa_lanczos"), 1.0) << id;
+    EXPECT_LT(r.number("kappa_lanczos"), r.number("kappa_jacobi")) << id;
     const auto u = potential(id);
     double d = 0;
     for (size_t i = 0; i < ue.size(); ++i) d = std::max(d, std::abs(ue[i] - u[i]));

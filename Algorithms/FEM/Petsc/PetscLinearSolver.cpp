@@ -204,7 +204,10 @@ struct Engine {
     TF_PETSC(KSPSetOperators(ksp, A, A));
     const bool minres = SolverKind(w.kind) == SolverKind::Minres;
     TF_PETSC(KSPSetType(ksp, minres ? KSPMINRES : KSPCG));
-    if (!minres) TF_PETSC(KSPSetNormType(ksp, KSP_NORM_NATURAL));
+    if (!minres) {
+      TF_PETSC(KSPSetNormType(ksp, KSP_NORM_NATURAL));
+      TF_PETSC(KSPSetComputeSingularValues(ksp, PETSC_TRUE)); // condition estimate of M^-1 K
+    }
     PC pc = nullptr;
     TF_PETSC(KSPGetPC(ksp, &pc));
     switch (PreconditionerKind(w.preconditioner)) {
@@ -248,6 +251,11 @@ struct Engine {
     test->cancelled = false;
     TF_PETSC(KSPSolve(ksp, b, x));
     test->progress = nullptr;
+    PetscReal emax = 0, emin = 0;
+    KSPType type = nullptr;
+    TF_PETSC(KSPGetType(ksp, &type));
+    const bool cg = type && std::string(type) == KSPCG;
+    if (cg) TF_PETSC(KSPComputeExtremeSingularValues(ksp, &emax, &emin)); // on every rank
     TF_PETSC(VecScatterBegin(toZero, x, x0, INSERT_VALUES, SCATTER_FORWARD));
     TF_PETSC(VecScatterEnd(toZero, x, x0, INSERT_VALUES, SCATTER_FORWARD));
     if (!out) return;
@@ -263,6 +271,10 @@ struct Engine {
     PetscInt nh = 0;
     TF_PETSC(KSPGetResidualHistory(ksp, &h, &nh));
     out->iterations = its;
+    if (cg && emin > 0 && emax >= emin) {
+      out->eigenMin = double(emin);
+      out->eigenMax = double(emax);
+    }
     out->history.clear();
     for (PetscInt k = 0; k < nh; ++k) out->history.push_back(h[0] > 0 ? double(h[k] / h[0]) : 0.0);
     if (out->history.empty()) out->history.push_back(1.0);

@@ -33,6 +33,7 @@
 // cancelled solve ends on every rank and rank 0 throws Cancelled.
 #include <Eigen/Core>
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,6 +53,10 @@ public:
     int64_t iterations = 0;
     double relativeResidual = 0.0;  // last ||r||_{M^-1} / ||b||_{M^-1}
     std::vector<double> history;    // relative, entry 0 = 1
+    // CG: the extreme eigenvalues of the preconditioned operator M^-1 K estimated from the
+    // KSP's Lanczos coefficients (KSPComputeExtremeSingularValues); NaN for MINRES.
+    double eigenMin = std::numeric_limits<double>::quiet_NaN();
+    double eigenMax = std::numeric_limits<double>::quiet_NaN();
   };
   // Collective: distributes K (square, both triangles, compressed) and sets up the KSP on every
   // rank. Only rank 0 constructs one (the workers follow in runPetscWorker).
