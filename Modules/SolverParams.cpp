@@ -11,9 +11,10 @@ std::vector<ParamSpec> solverParamSpecs(const std::string& defaultSolver) {
   ParamSpec solver = makeParam("solver", ParamType::Enum, defaultSolver, "",
                                "minres (Paige-Saunders), cg, cholesky (sparse Cholesky factorisation, "
                                "CHOLMOD: factorised once, then two triangular solves per right-hand side; "
-                               "solver_backend eigen), or auto (cholesky when its factor fits in memory and "
-                               "is predicted faster for the solves at hand, else minres; the log says which "
-                               "and why)");
+                               "solver_backend eigen), or auto (whichever is predicted fastest for the solves at hand "
+                               "within the memory available: cholesky, minres with this preconditioner, or "
+                               "cg + hypre on PETSc in this process when the build has PETSc; the log says "
+                               "which and why)");
   solver.choices = {"minres", "cg", "cholesky", "auto"};
   ParamSpec prec = makeParam("preconditioner", ParamType::Enum, std::string("jacobi"), "",
                              "jacobi (M = diag(K)), none, or with solver_backend petsc: gamg "

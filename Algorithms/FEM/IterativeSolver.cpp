@@ -114,7 +114,12 @@ void IterativeSolver::resetSetUp() {
   cholesky_.reset();
   reused_ = false;
   choiceNote_.clear();
-  if (autoRequested_) params_.kind = SolverKind::Auto;
+  if (autoRequested_) params_ = requested_;
+}
+
+void IterativeSolver::setCostModel(const SolverCostModel& m) {
+  model_ = std::make_shared<const SolverCostModel>(m);
+  resetSetUp();
 }
 
 void IterativeSolver::choose() {
@@ -122,8 +127,11 @@ void IterativeSolver::choose() {
   params_.validate();
   checkOperator(K_ ? K_->rows() : 0);
   NullProgress none;
-  SolverChoice c = chooseSolver(*K_, params_, rightHandSides_, progress_ ? *progress_ : none);
+  SolverChoice c = chooseSolver(*K_, params_, rightHandSides_, progress_ ? *progress_ : none,
+                                model_ ? *model_ : SolverCostModel());
   params_.kind = c.kind;
+  params_.preconditioner = c.preconditioner;
+  params_.backend = c.backend;
   cholesky_ = c.factor;
   reused_ = c.reused;
   choiceNote_ = c.note;

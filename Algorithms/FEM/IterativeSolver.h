@@ -58,6 +58,7 @@ namespace tetflow {
 
 class PetscLinearSolver;
 class SparseCholesky;
+struct SolverCostModel;
 
 enum class SolverKind : int { Minres = 0, Cg = 1, Cholesky = 2, Auto = 3 };
 const char* solverKindName(SolverKind k);
@@ -107,16 +108,22 @@ public:
   using Monitor = std::function<void(int64_t, double)>;
 
   IterativeSolver() = default;
-  explicit IterativeSolver(const SolverParams& p) : params_(p), autoRequested_(p.kind == SolverKind::Auto) {}
+  explicit IterativeSolver(const SolverParams& p) : params_(p), requested_(p), autoRequested_(p.kind == SolverKind::Auto) {}
 
   // --- configure ---
   void setParams(const SolverParams& p) {
     params_ = p;
+    requested_ = p;
     autoRequested_ = p.kind == SolverKind::Auto;
     resetSetUp();
   }
-  // After an auto choice, kind is the one chosen.
+  // After an auto choice, kind (and for cg + hypre the preconditioner and backend) is the one
+  // chosen; requested() is what was asked for.
   const SolverParams& params() const { return params_; }
+  const SolverParams& requested() const { return requested_; }
+  bool autoRequested() const { return autoRequested_; }
+  // Auto: the cost model that weighs the candidates (SolverChoice.h); tests change its rates.
+  void setCostModel(const SolverCostModel& m);
   // K must be square, symmetric with both triangles stored, compressed, and outlive solve().
   // With the Jacobi preconditioner every diagonal entry must be > 0 (checked in solve()).
   void setOperator(const SparseMatrix& K) {
@@ -151,7 +158,8 @@ public:
   // worst column). InputError for the iterative kinds.
   void solveBlock(const Eigen::MatrixXd& B, Eigen::MatrixXd& X);
   bool direct() const { return params_.kind == SolverKind::Cholesky; }
-  // Whether setUp() may analyse and factorise (cholesky, or auto with backend eigen).
+  // Whether setUp() may analyse and factorise (cholesky, or auto with backend eigen; auto may also
+  // pick cg + hypre on PETSc in this process, whose set-up setUp() then does).
   bool mayFactorize() const {
     return direct() || (params_.kind == SolverKind::Auto && params_.backend == SolverBackend::Eigen);
   }
@@ -187,6 +195,8 @@ private:
   void resetSetUp();
 
   SolverParams params_;
+  SolverParams requested_;
+  std::shared_ptr<const SolverCostModel> model_; // null: the default model
   const SparseMatrix* K_ = nullptr;
   std::shared_ptr<PetscLinearSolver> petsc_; // Petsc: the distributed system, reused
   std::shared_ptr<SparseCholesky> cholesky_; // Cholesky: the factor, reused

@@ -36,12 +36,17 @@ size_t transferBlockSize(int64_t dofs) {
 }
 
 double setUpTransferSolver(IterativeSolver& solver, Progress& progress, std::vector<std::string>& notes) {
-  const bool petsc = solver.params().backend == SolverBackend::Petsc;
-  if (!solver.mayFactorize() && !petsc) return 0.0;
   const auto t0 = std::chrono::steady_clock::now();
+  if (solver.params().kind == SolverKind::Auto) {
+    progress.beginStage("choose solver"); // with CHOLMOD's analysis when the factor may pay
+    solver.choose();
+    if (!solver.choiceNote().empty()) notes.push_back(solver.choiceNote());
+    progress.endStage();
+  }
+  const bool petsc = solver.params().backend == SolverBackend::Petsc;
+  if (!solver.direct() && !petsc) return secondsSince(t0);
   progress.beginStage(petsc ? "set up" : "factorize");
   solver.setUp();
-  if (!solver.choiceNote().empty()) notes.push_back(solver.choiceNote());
   if (const SparseCholesky* f = solver.cholesky()) {
     std::ostringstream m;
     m << "cholesky: " << f->ordering() << " ordering, " << f->factorNonzeros() << " nonzeros in L ("

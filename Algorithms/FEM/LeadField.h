@@ -93,12 +93,12 @@ void countTransferSolve(Result& res, const IterativeSolver& solver, const std::s
 void leadFieldSources(const TetMesh& mesh, const std::vector<int32_t>& labels, const std::vector<Vec3>& points,
                       std::vector<Vec3>& sources, std::vector<int64_t>& sourceTets, Progress& progress);
 
-// Sets up a transfer-matrix solver (its operator, right-hand-side count and progress given) as a
-// stage of its own and returns its seconds: "factorize" for solver cholesky or auto with backend
-// eigen (auto's choice and CHOLMOD's analysis, then the numeric factorisation when cholesky is
-// chosen; nothing numeric when SolverCache holds the factor of this K), "set up" for backend
-// petsc (distribution and preconditioner on every rank); none for the eigen iterative solvers.
-// Appends the choice and the factor's figures to `notes`.
+// Sets up a transfer-matrix solver (its operator, right-hand-side count and progress given) as
+// stages of their own and returns their seconds: for solver auto first "choose solver" (the
+// prediction, and CHOLMOD's analysis when the factor may pay), then "factorize" when cholesky runs
+// (nothing numeric when SolverCache holds the factor of this K) or "set up" when the backend is
+// petsc, given or chosen (distribution and preconditioner on every rank); nothing for the eigen
+// iterative solvers. Appends the choice and the factor's figures to `notes`.
 double setUpTransferSolver(IterativeSolver& solver, Progress& progress, std::vector<std::string>& notes);
 
 // Right-hand sides a direct solver takes per pass in a transfer matrix of `dofs` unknowns: as many

@@ -25,8 +25,11 @@ bench() { # label, args...: one leadfield_benchmark line with its peak memory
   local label=$1
   shift
   local line
-  line=$(/usr/bin/time -f "%M" -o "$WORK/rss" "$BUILD/Testing/leadfield_benchmark" "$@")
-  echo "method=$label $line peak_rss_MB=$(( $(cat "$WORK/rss") / 1024 ))"
+  if line=$(/usr/bin/time -f "%M" -o "$WORK/rss" "$BUILD/Testing/leadfield_benchmark" "$@" 2>"$WORK/err"); then
+    echo "method=$label $line peak_rss_MB=$(( $(tail -1 "$WORK/rss") / 1024 ))"
+  else # a refusal (memory) is a result too: its message, and the run goes on
+    echo "method=$label failed=\"$(grep -v '^Command exited' "$WORK/err" | tr '\n' ' ')\" peak_rss_MB=$(( $(tail -1 "$WORK/rss") / 1024 ))"
+  fi
 }
 {
   echo "# solver_scaling.sh on $(nproc) cores, $(date -u +%Y-%m-%d), layered head ${VOXEL} mm, Nets/mesh_labels.srn, refine_thin_layers $REFINE, cell sizes $MESHES"

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -13,6 +14,7 @@
 #include "Algorithms/Core/MemoryBudget.h"
 #include "Algorithms/FEM/LeadField.h"
 #include "Algorithms/FEM/Meg.h"
+#include "Algorithms/FEM/Petsc/PetscLinearSolver.h"
 #include "Algorithms/FEM/PoissonProblem.h"
 #include "Algorithms/FEM/SolverCache.h"
 #include "Algorithms/FEM/SolverChoice.h"
@@ -273,4 +275,53 @@ TEST(SolverChoice, TheMegLeadFieldInBlocksEqualsItsOneSensorAtATimeSolves) {
   ASSERT_EQ(lf.matrix.rows(), ref.matrix.rows());
   for (Eigen::Index c = 0; c < ref.matrix.cols(); ++c)
     EXPECT_LT((lf.matrix.col(c) - ref.matrix.col(c)).norm(), 1e-6 * ref.matrix.col(c).norm()) << "column " << c;
+}
+
+// The third candidate: CG + BoomerAMG on PETSc in this process, when the build has PETSc and the
+// model predicts it faster than both MINRES and the factorisation (here made so by its rates: on
+// these small systems MINRES wins by the measured ones, as the next lines check).
+TEST(SolverChoice, AutoTakesCgWithBoomerAmgWhenItIsPredictedFastest) {
+  solver_cache::release();
+  const ReducedSystem sys = checkerElectrodeSystem({11, 10, 9}, 5);
+  NullProgress np;
+  const SolverChoice measured = chooseSolver(sys.K, autoParams(), 1, np);
+  EXPECT_EQ(measured.kind, SolverKind::Minres) << measured.note;
+  SolverCostModel fastAmg;
+  fastAmg.amgSetupPerNonzero = 1e-15;
+  fastAmg.amgSolvePerNonzero = 1e-15;
+  fastAmg.factorRate = 1.0; // and no factorisation
+  const SolverChoice c = chooseSolver(sys.K, autoParams(), 3, np, fastAmg);
+  if (!petscAvailable()) {
+    EXPECT_EQ(c.kind, SolverKind::Minres) << "without PETSc there is no AMG candidate: " << c.note;
+    EXPECT_TRUE(std::isinf(c.predictedAmgSeconds));
+    return;
+  }
+  EXPECT_EQ(c.kind, SolverKind::Cg) << c.note;
+  EXPECT_EQ(c.preconditioner, PreconditionerKind::Hypre);
+  EXPECT_EQ(c.backend, SolverBackend::Petsc);
+  EXPECT_TRUE(startsWith(c.note, "auto: cg + hypre (PETSc, one process; predicted ")) << c.note;
+  EXPECT_NE(c.note.find("minres + jacobi"), std::string::npos) << "the other candidate's prediction: " << c.note;
+  EXPECT_LT(c.predictedAmgSeconds, c.predictedMinresSeconds);
+  // Solved through IterativeSolver: PETSc's CG + BoomerAMG, the answer of a tight MINRES.
+  IterativeSolver a(autoParams());
+  a.setCostModel(fastAmg);
+  a.setOperator(sys.K);
+  a.setRightHandSides(3);
+  Eigen::VectorXd x, y;
+  a.solve(sys.b, x);
+  EXPECT_EQ(a.params().kind, SolverKind::Cg);
+  EXPECT_EQ(a.params().backend, SolverBackend::Petsc);
+  EXPECT_EQ(a.requested().kind, SolverKind::Auto);
+  EXPECT_EQ(a.requested().backend, SolverBackend::Eigen);
+  ASSERT_TRUE(a.converged());
+  EXPECT_LT(a.iterations(), 40);
+  IterativeSolver m({SolverKind::Minres, PreconditionerKind::Jacobi, 1e-13, 20000});
+  m.setOperator(sys.K);
+  m.solve(sys.b, y);
+  EXPECT_LT((x - y).norm(), 1e-6 * y.norm());
+  // A new operator: the request (auto, jacobi, eigen) is restored and chosen again.
+  a.setOperator(sys.K);
+  EXPECT_EQ(a.params().kind, SolverKind::Auto);
+  EXPECT_EQ(a.params().preconditioner, PreconditionerKind::Jacobi);
+  EXPECT_EQ(a.params().backend, SolverBackend::Eigen);
 }
