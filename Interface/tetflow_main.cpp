@@ -8,6 +8,7 @@
 //   tetflow validate NET.srn [--set ...]
 //   tetflow list-modules
 //   tetflow describe MODULE
+//   tetflow describe --markdown [FILE]   the module reference (docs/modules.md)
 //   tetflow certify MESH [LABELS] [--max-volume-error PCT] [--require-components]
 //                   [--forbid-spurious-contacts] [--strict] [--output MESH] [--report out.json]
 //
@@ -36,6 +37,7 @@
 #include "Algorithms/IO/FileUtil.h"
 #include "Algorithms/FEM/Petsc/PetscLinearSolver.h"
 #include "Dataflow/Executor.h"
+#include "Dataflow/ModuleReference.h"
 #include "Dataflow/NetworkFile.h"
 #include "Dataflow/RunReport.h"
 #include "Algorithms/IO/VolumeIO.h"
@@ -75,6 +77,7 @@ const char* kUsage =
     "  tetflow validate NET.srn [--set]  load and check a network without running it\n"
     "  tetflow list-modules              list the available modules\n"
     "  tetflow describe MODULE           ports and parameters of a module\n"
+    "  tetflow describe --markdown [FILE] every module as Markdown (docs/modules.md); stdout without FILE\n"
     "  tetflow certify MESH LABELS [opts] compare a mesh with its label volume (the certificate)\n"
     "  tetflow certify MESH              the quality of a mesh alone (any mesh format, e.g. Gmsh .msh)\n"
     "options for run:\n"
@@ -794,8 +797,21 @@ int main(int argc, char** argv) {
       if (a.size() != 1) return usageError("list-modules takes no arguments");
       return cmdList(reg);
     }
+    if (cmd == "describe" && a.size() >= 2 && a[1] == "--markdown") {
+      if (a.size() > 3) return usageError("describe --markdown takes at most one output file");
+      const std::string page = moduleReferenceMarkdown(reg);
+      if (a.size() == 2) {
+        std::cout << page;
+        return 0;
+      }
+      AtomicOutputFile out(a[2], false);
+      out.stream() << page;
+      out.commit();
+      std::printf("%s: %zu modules\n", a[2].c_str(), reg.all().size());
+      return 0;
+    }
     if (cmd == "describe") {
-      if (a.size() != 2) return usageError("describe takes one module name");
+      if (a.size() != 2) return usageError("describe takes one module name (or --markdown [FILE])");
       return cmdDescribe(a[1], reg);
     }
     return usageError("unknown command '" + cmd + "'");
