@@ -1,8 +1,8 @@
 #!/bin/bash
 # Solver scaling table (issue "the simulation at the speed of the mesh", README "Solvers: which
 # one and when"): one family of meshes, the 1 mm layered head of layered_head.cpp meshed by
-# Nets/mesh_labels.srn's regular lattice at cell sizes 6 to 1.75 mm without thin-layer refinement
-# (refine_thin_layers none: the unknowns then follow the cell size, 0.1 M to 2 M), and per mesh,
+# Nets/mesh_labels.srn's regular lattice at cell sizes 6 to 2 mm without thin-layer refinement
+# (refine_thin_layers none: the unknowns then follow the cell size, 0.1 M to 1.9 M), and per mesh,
 # as leadfield_benchmark runs a lead field (128 scalp electrodes, 5 000 grey sources):
 #   cholesky     16 solves: analysis + numeric factorisation, seconds per right-hand side
 #   minres       MINRES + Jacobi, 2 solves: seconds and iterations per solve
@@ -15,7 +15,7 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 BUILD=${TETFLOW_BUILD:-$ROOT/build}
 OUT=${1:-$ROOT/Testing/Benchmarks/results/solver_scaling.txt}
-MESHES=${MESHES:-"6 4 3 2.5 2 1.75"}
+MESHES=${MESHES:-"6 4 3 2.5 2"}
 REFINE=${REFINE:-none}
 VOXEL=${VOXEL:-1}
 METHODS=${METHODS:-"cholesky minres hypre auto"}
