@@ -6,6 +6,10 @@
 //                       [--scalp 1] [--grey 4] [--check K] [--tolerance 1e-8]
 //   leadfield_benchmark MESH --choose K      what solver = auto picks for K right-hand sides on
 //                                            the lead field's system (no solve)
+//   leadfield_benchmark MESH --meg N ...     the MEG lead field instead (computeMegLeadField, Meg.h)
+//                                            of N radial magnetometers on a helmet (the upper
+//                                            part of a sphere 10 mm outside the whole mesh),
+//                                            the same sources
 //
 // Electrodes: boundary vertices of `--scalp` tets in the upper 60 % of the
 // head, spread by farthest-point sampling from the top vertex; the first is the reference (its
@@ -20,6 +24,7 @@
 // (peak memory) and writes results/leadfield.txt; solver_scaling.sh runs it on a family of meshes.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -30,6 +35,7 @@
 #include "Algorithms/FEM/Assembly.h"
 #include "Algorithms/FEM/BoundaryConditions.h"
 #include "Algorithms/FEM/LeadField.h"
+#include "Algorithms/FEM/Meg.h"
 #include "Algorithms/FEM/SolverChoice.h"
 #include "Algorithms/FEM/SparseCholesky.h"
 #include "Algorithms/IO/MeshIO.h"
@@ -40,7 +46,7 @@ namespace {
 
 struct Options {
   std::string mesh, solver = "minres", preconditioner = "jacobi", backend = "eigen";
-  int electrodes = 128, sources = 5000, scalp = 1, grey = 4, check = 0, choose = 0;
+  int electrodes = 128, sources = 5000, scalp = 1, grey = 4, check = 0, choose = 0, meg = 0;
   double tolerance = 1e-8, checkTolerance = 1e-12;
 };
 
@@ -61,6 +67,7 @@ Options parse(int argc, char** argv) {
     else if (a == "--grey") o.grey = std::stoi(next());
     else if (a == "--check") o.check = std::stoi(next());
     else if (a == "--choose") o.choose = std::stoi(next());
+    else if (a == "--meg") o.meg = std::stoi(next());
     else if (a == "--tolerance") o.tolerance = std::stod(next());
     else if (a == "--check-tolerance") o.checkTolerance = std::stod(next());
     else if (o.mesh.empty() && a[0] != '-') o.mesh = a;
@@ -120,6 +127,54 @@ std::vector<Vec3> greySources(const TetMesh& m, int grey, int count) {
   return out;
 }
 
+// The MEG lead field of o.meg radial magnetometers (see the header), printed as one line.
+int runMeg(const TetMesh& mesh, const LeadFieldParams& eeg, const Options& o, double readSeconds) {
+  // A helmet: o.meg points spread over the upper part of a sphere around the mesh (Fibonacci
+  // spiral), 10 mm outside its farthest point, each a magnetometer along the radius.
+  Vec3 centre{0, 0, 0};
+  for (const Vec3& q : mesh.points) centre = centre + (1.0 / double(mesh.numPoints())) * q;
+  double radius = 0;
+  for (const Vec3& q : mesh.points) radius = std::max(radius, norm(q - centre));
+  radius += 10.0;
+  MegLeadFieldParams p;
+  p.conductivities = eeg.conductivities;
+  p.sourcePoints = eeg.sourcePoints;
+  p.solver = eeg.solver;
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < o.meg; ++i) {
+    const double z = 1.0 - 1.2 * (double(i) + 0.5) / double(o.meg); // cos(polar angle) from 1 to -0.2
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Vec3 d{r * std::cos(golden * i), r * std::sin(golden * i), z};
+    MegCoil c;
+    c.position = centre + radius * d;
+    c.normal = d;
+    p.sensors.push_back({std::string("M").append(std::to_string(i)), {c}});
+  }
+  NullProgress np;
+  const auto t0 = std::chrono::steady_clock::now();
+  const MegLeadFieldResult r = computeMegLeadField(mesh, p, np);
+  np.endStage();
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("meg=%zu solver=%s preconditioner=%s backend=%s tets=%zu dofs=%lld nnz=%lld sources=%zu "
+              "coils_inside_mesh=%lld read_s=%.2f total_s=%.2f",
+              r.names.size(), o.solver.c_str(), o.preconditioner.c_str(), o.backend.c_str(), mesh.numTets(),
+              (long long)r.dofs, (long long)r.nnz, r.sources.size(), (long long)r.coilsInsideMesh, readSeconds, total);
+  double stages = 0;
+  for (const auto& st : np.stageTimes()) {
+    std::string key = st.name;
+    std::replace(key.begin(), key.end(), ' ', '_');
+    std::printf(" %s_s=%.2f", key.c_str(), st.seconds);
+    stages += st.seconds;
+  }
+  std::printf(" stages_sum_s=%.2f solves=%lld ran=%s per_solve_s=%.3f iterations_max=%lld converged=%d", stages,
+              (long long)r.solves, r.solverUsed.c_str(), r.solves ? r.solveSeconds / double(r.solves) : 0.0,
+              (long long)r.iterationsMax, r.converged ? 1 : 0);
+  for (const auto& n : r.notes)
+    if (n.rfind("cholesky: ", 0) == 0 || n.rfind("auto: ", 0) == 0) std::printf(" note=\"%s\"", n.c_str());
+  std::printf("\n");
+  return r.converged ? 0 : 1;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -160,6 +215,7 @@ int main(int argc, char** argv) {
                   c.predictedCholeskySeconds, c.predictedIterativeSeconds, c.note.c_str());
       return 0;
     }
+    if (o.meg > 0) return runMeg(mesh, p, o, readSeconds);
     t0 = std::chrono::steady_clock::now();
     const LeadFieldResult r = computeLeadField(mesh, p, np);
     np.endStage();
