@@ -5,6 +5,8 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <condition_variable>
+#include <cstdlib>
 #include <mutex>
 #include <sstream>
 #include <string>
@@ -30,6 +32,36 @@ const char* orderingName(int o) {
   default: return "?";
   }
 }
+// CHOLMOD's numeric work (factorisations and triangular solves) calls the threaded OpenBLAS,
+// which is entered from one thread at a time here: a factorisation cancelled while it runs goes
+// on in the background, and OpenBLAS's thread pool, entered concurrently from several threads,
+// could hang the process at exit (seen once in CI). So every numeric call holds this lock, a
+// worker whose caller gave up before it got the lock does nothing, and the process waits at exit
+// for a background worker still inside OpenBLAS (atexit runs before OpenBLAS's own shutdown).
+std::mutex& numericMutex() {
+  static std::mutex m;
+  return m;
+}
+std::mutex gWorkersMutex;
+std::condition_variable gWorkersDone;
+int gWorkers = 0;
+void waitForWorkers() {
+  std::unique_lock<std::mutex> lock(gWorkersMutex);
+  gWorkersDone.wait(lock, [] { return gWorkers == 0; });
+}
+// Counts a worker from its start to its end; the first registers waitForWorkers at exit.
+struct WorkerCount {
+  WorkerCount() {
+    static const bool registered = [] { return std::atexit(waitForWorkers) == 0; }();
+    (void)registered;
+    std::lock_guard<std::mutex> lock(gWorkersMutex);
+    ++gWorkers;
+  }
+  ~WorkerCount() {
+    std::lock_guard<std::mutex> lock(gWorkersMutex);
+    if (--gWorkers == 0) gWorkersDone.notify_all();
+  }
+};
 } // namespace
 
 struct SparseCholesky::State {
@@ -37,6 +69,7 @@ struct SparseCholesky::State {
   cholmod_sparse* A = nullptr; // lower triangle of K, 64-bit indices
   cholmod_factor* L = nullptr;
   std::atomic<bool> done{false};
+  std::atomic<bool> abandoned{false}; // the caller cancelled: a worker not yet started skips the work
   std::atomic<bool> factorized{false};
   std::mutex solveMutex; // cholmod_common is not thread-safe: one solve at a time
   int status = CHOLMOD_OK;
@@ -113,16 +146,25 @@ void SparseCholesky::factorize(Progress& progress) {
       return std::string("use solver = minres or cg (iterative: memory of the matrix only), or a coarser mesh");
     });
   }
+  progress.checkCancel();
   const auto t0 = std::chrono::steady_clock::now();
   std::shared_ptr<State> s = s_;
-  std::thread worker([s] {
-    cholmod_l_factorize(s->A, s->L, &s->c);
-    s->status = s->c.status;
-    s->minor = int64_t(s->L->minor);
+  auto count = std::make_shared<WorkerCount>();
+  std::thread worker([s, count] {
+    {
+      std::lock_guard<std::mutex> numeric(numericMutex());
+      if (!s->abandoned) {
+        cholmod_l_factorize(s->A, s->L, &s->c);
+        s->status = s->c.status;
+        s->minor = int64_t(s->L->minor);
+      }
+    }
     s->done = true;
   });
+  count.reset(); // the worker holds the count to its end
   while (!s->done) {
     if (progress.cancelRequested()) {
+      s->abandoned = true;
       worker.detach(); // it finishes on its own and frees the factor with the last reference
       s_ = std::make_shared<State>();
       throw Cancelled();
@@ -155,6 +197,7 @@ struct SolveJob {
 
 void runSolve(SparseCholesky::State& s, SolveJob& job) {
   std::lock_guard<std::mutex> lock(s.solveMutex);
+  std::lock_guard<std::mutex> numeric(numericMutex());
   cholmod_dense b;
   std::memset(&b, 0, sizeof b);
   b.nrow = size_t(job.B.rows());
@@ -192,10 +235,12 @@ void SparseCholesky::solve(const Eigen::MatrixXd& B, Eigen::MatrixXd& X, Progres
     runSolve(*s_, *job);
   } else {
     std::shared_ptr<State> s = s_;
-    std::thread worker([s, job] {
+    auto count = std::make_shared<WorkerCount>();
+    std::thread worker([s, job, count] {
       runSolve(*s, *job);
       job->done = true;
     });
+    count.reset();
     while (!job->done) {
       if (progress->cancelRequested()) {
         worker.detach(); // it finishes on its own copies and frees them with the last reference

@@ -97,7 +97,7 @@ std::vector<Electrode> scalpElectrodes(const TetMesh& m, int scalp, int count) {
   std::vector<Electrode> out;
   size_t pick = first;
   for (int e = 0; e < count && e < int(cand.size()); ++e) {
-    out.push_back({"E" + std::to_string(e), m.points[size_t(cand[pick])], e + 1});
+    out.push_back({std::string("E").append(std::to_string(e)), m.points[size_t(cand[pick])], e + 1});
     const Vec3 p = m.points[size_t(cand[pick])];
     size_t far = 0;
     for (size_t i = 0; i < cand.size(); ++i) {
