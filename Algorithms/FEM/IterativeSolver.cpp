@@ -114,7 +114,7 @@ void IterativeSolver::resetSetUp() {
   cholesky_.reset();
   reused_ = false;
   choiceNote_.clear();
-  if (autoRequested_) params_ = requested_;
+  if (requested_.kind == SolverKind::Auto) params_ = requested_;
 }
 
 void IterativeSolver::setCostModel(const SolverCostModel& m) {

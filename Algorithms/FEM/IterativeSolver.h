@@ -108,20 +108,18 @@ public:
   using Monitor = std::function<void(int64_t, double)>;
 
   IterativeSolver() = default;
-  explicit IterativeSolver(const SolverParams& p) : params_(p), requested_(p), autoRequested_(p.kind == SolverKind::Auto) {}
+  explicit IterativeSolver(const SolverParams& p) : params_(p), requested_(p) {}
 
   // --- configure ---
   void setParams(const SolverParams& p) {
     params_ = p;
     requested_ = p;
-    autoRequested_ = p.kind == SolverKind::Auto;
     resetSetUp();
   }
   // After an auto choice, kind (and for cg + hypre the preconditioner and backend) is the one
   // chosen; requested() is what was asked for.
   const SolverParams& params() const { return params_; }
   const SolverParams& requested() const { return requested_; }
-  bool autoRequested() const { return autoRequested_; }
   // Auto: the cost model that weighs the candidates (SolverChoice.h); tests change its rates.
   void setCostModel(const SolverCostModel& m);
   // K must be square, symmetric with both triangles stored, compressed, and outlive solve().
@@ -203,7 +201,6 @@ private:
   Monitor monitor_;
   Progress* progress_ = nullptr;
   bool reportFraction_ = true;
-  bool autoRequested_ = false;
   bool reused_ = false;
   int64_t rightHandSides_ = 1;
   std::string choiceNote_;

@@ -427,26 +427,16 @@ MegLeadFieldResult computeMegLeadField(const TetMesh& mesh, const MegLeadFieldPa
     auto tk = std::chrono::steady_clock::now();
     B = Eigen::MatrixXd::Zero(res.dofs, Eigen::Index(count));
     for (size_t j = 0; j < count; ++j) {
-      // Each tet's four contributions in parallel (its kernel H_T and gradients), then scattered
-      // in tet order by one thread: the same sums, in the same order, as a serial pass.
-      const MegSensor& sensor = params.sensors[first + j];
+      // The kernels H_T (megSensorKernels, in parallel), then each tet's four contributions in
+      // parallel, scattered in tet order by one thread: the same sums, in the same order, as a
+      // serial pass.
+      const std::vector<Vec3> H = megSensorKernels(mesh, params.sensors[first + j], progress);
       std::vector<std::array<double, 4>> w(nt);
-      const int64_t chunk = 1 << 14;
-      for (int64_t t0 = 0; t0 < int64_t(nt); t0 += chunk) {
-        progress.checkCancel();
-        const int64_t t1 = std::min(int64_t(nt), t0 + chunk);
 #pragma omp parallel for schedule(static)
-        for (int64_t t = t0; t < t1; ++t) {
-          const auto& tq = q[size_t(t)];
-          const Vec3 &a = mesh.points[size_t(tq[0])], &b = mesh.points[size_t(tq[1])],
-                     &c = mesh.points[size_t(tq[2])], &d = mesh.points[size_t(tq[3])];
-          Vec3 h{0, 0, 0};
-          for (const MegCoil& coil : sensor.coils)
-            h = h + coil.weight * cross(tetBiotSavartKernel(a, b, c, d, coil.position), coil.normal);
-          const TetGradients g = tetGradients(mesh, size_t(t));
-          const Vec3 sH = mul(sigma(mesh.materials[size_t(t)]), h); // sigma symmetric: (sigma g) . H = g . (sigma H)
-          for (int k = 0; k < 4; ++k) w[size_t(t)][size_t(k)] = kMegFemtoTesla * dot(g.grad[size_t(k)], sH);
-        }
+      for (int64_t t = 0; t < int64_t(nt); ++t) {
+        const TetGradients g = tetGradients(mesh, size_t(t));
+        const Vec3 sH = mul(sigma(mesh.materials[size_t(t)]), H[size_t(t)]); // sigma symmetric: (sigma g) . H = g . (sigma H)
+        for (int k = 0; k < 4; ++k) w[size_t(t)][size_t(k)] = kMegFemtoTesla * dot(g.grad[size_t(k)], sH);
       }
       Eigen::VectorXd load = Eigen::VectorXd::Zero(Eigen::Index(np));
       for (size_t t = 0; t < nt; ++t)

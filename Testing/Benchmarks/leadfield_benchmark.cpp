@@ -127,6 +127,18 @@ std::vector<Vec3> greySources(const TetMesh& m, int grey, int count) {
   return out;
 }
 
+// Prints " NAME_s=SECONDS" for every stage the progress recorded; returns their sum.
+double printStages(const NullProgress& np) {
+  double stages = 0;
+  for (const auto& st : np.stageTimes()) {
+    std::string key = st.name;
+    std::replace(key.begin(), key.end(), ' ', '_');
+    std::printf(" %s_s=%.2f", key.c_str(), st.seconds);
+    stages += st.seconds;
+  }
+  return stages;
+}
+
 // The MEG lead field of o.meg radial magnetometers (see the header), printed as one line.
 int runMeg(const TetMesh& mesh, const LeadFieldParams& eeg, const Options& o, double readSeconds) {
   // A helmet: o.meg points spread over the upper part of a sphere around the mesh (Fibonacci
@@ -159,13 +171,7 @@ int runMeg(const TetMesh& mesh, const LeadFieldParams& eeg, const Options& o, do
               "coils_inside_mesh=%lld read_s=%.2f total_s=%.2f",
               r.names.size(), o.solver.c_str(), o.preconditioner.c_str(), o.backend.c_str(), mesh.numTets(),
               (long long)r.dofs, (long long)r.nnz, r.sources.size(), (long long)r.coilsInsideMesh, readSeconds, total);
-  double stages = 0;
-  for (const auto& st : np.stageTimes()) {
-    std::string key = st.name;
-    std::replace(key.begin(), key.end(), ' ', '_');
-    std::printf(" %s_s=%.2f", key.c_str(), st.seconds);
-    stages += st.seconds;
-  }
+  const double stages = printStages(np);
   std::printf(" stages_sum_s=%.2f solves=%lld ran=%s per_solve_s=%.3f iterations_max=%lld converged=%d", stages,
               (long long)r.solves, r.solverUsed.c_str(), r.solves ? r.solveSeconds / double(r.solves) : 0.0,
               (long long)r.iterationsMax, r.converged ? 1 : 0);
@@ -224,13 +230,7 @@ int main(int argc, char** argv) {
                 "read_s=%.2f total_s=%.2f",
                 o.solver.c_str(), o.preconditioner.c_str(), o.backend.c_str(), mesh.numTets(), (long long)r.dofs,
                 (long long)r.nnz, r.names.size(), r.sources.size(), readSeconds, total);
-    double stages = 0;
-    for (const auto& st : np.stageTimes()) {
-      std::string key = st.name;
-      std::replace(key.begin(), key.end(), ' ', '_');
-      std::printf(" %s_s=%.2f", key.c_str(), st.seconds);
-      stages += st.seconds;
-    }
+    const double stages = printStages(np);
     std::printf(" stages_sum_s=%.2f solves=%lld ran=%s per_solve_s=%.3f iterations_mean=%.1f iterations_max=%lld converged=%d",
                 stages, (long long)r.solves, r.solverUsed.c_str(), r.solves ? r.solveSeconds / double(r.solves) : 0.0,
                 r.solves ? double(r.iterationsTotal) / double(r.solves) : 0.0, (long long)r.iterationsMax,
