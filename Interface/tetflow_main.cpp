@@ -9,7 +9,7 @@
 //   tetflow list-modules
 //   tetflow describe MODULE
 //   tetflow describe --markdown [FILE]   the module reference (docs/modules.md)
-//   tetflow certify MESH [LABELS] [--max-volume-error PCT] [--require-components]
+//   tetflow certify MESH [LABELS] [--max-volume-error PCT] [--small-component-allowance X] [--require-components]
 //                   [--forbid-spurious-contacts] [--strict] [--output MESH] [--report out.json]
 //
 // Exit status: 0 all modules succeeded; 1 a module failed (downstream ones skipped); 2 bad
@@ -108,7 +108,9 @@ const char* kUsage =
     "  --save-net NET.srn     also write the network, to open in tetflow-gui or run again\n"
     "  --no-run               with --save-net: write the network, do not run it\n"
     "options for certify (also --report, --threads, --max-memory, --quiet):\n"
-    "  --max-volume-error PCT fail when a label's |volume error| exceeds PCT percent\n"
+    "  --max-volume-error PCT fail when a label's |volume error| exceeds PCT percent and its\n"
+    "                         allowance (h^3 for each component smaller than h^3, h the local element edge)\n"
+    "  --small-component-allowance X  that allowance times X (default 1; 0 = percentages only)\n"
     "  --require-components   fail on a lost, split, merged or spurious component\n"
     "  --forbid-spurious-contacts  fail when labels touch in the mesh but not in the image\n"
     "  --strict               all three (volume error 3 % unless given)\n"
@@ -415,7 +417,7 @@ int cmdRun(const RunArgs& args, const ModuleRegistry& reg) {
 int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   RunArgs r;
   std::vector<std::string> files;
-  std::string output, maxErr = "0";
+  std::string output, maxErr = "0", allowance;
   bool requireComponents = false, forbidContacts = false;
   for (size_t i = 1; i < a.size(); ++i) {
     const std::string& s = a[i];
@@ -427,6 +429,7 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
       if (s == "--report") r.report = value();
       else if (s == "--output") output = value();
       else if (s == "--max-volume-error") maxErr = value();
+      else if (s == "--small-component-allowance") allowance = value();
       else if (s == "--require-components") requireComponents = true;
       else if (s == "--forbid-spurious-contacts") forbidContacts = true;
       else if (s == "--strict") {
@@ -466,6 +469,7 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
     net.setParameterText("mesh", "filename", abs(files[0]));
     net.addModule("EvaluateQuality", "certificate");
     net.setParameterText("certificate", "max_volume_error", maxErr);
+    if (!allowance.empty()) net.setParameterText("certificate", "small_component_allowance", allowance);
     net.setParameterText("certificate", "require_components", requireComponents ? "true" : "false");
     net.setParameterText("certificate", "forbid_spurious_contacts", forbidContacts ? "true" : "false");
     net.connect("mesh", 0, "certificate", 0);
@@ -512,16 +516,17 @@ int cmdCertify(const std::vector<std::string>& a, const ModuleRegistry& reg) {
       return;
     }
     std::printf("certificate: %s\n", text("cert_rule").c_str());
-    std::printf("%8s %14s %14s %9s %7s %7s %7s %9s  %s\n", "label", "voxels mm^3", "mesh mm^3", "error %",
-                "image", "robust", "mesh", "agree %", "name");
+    std::printf("%8s %14s %14s %9s %12s %7s %7s %7s %9s  %s\n", "label", "voxels mm^3", "mesh mm^3", "error %",
+                "allow mm^3", "image", "robust", "mesh", "agree %", "name");
     for (const auto& [k, v] : rep.entries()) {
       const std::string pre = "cert_label_", suf = "_voxel_volume_mm3";
       if (k.rfind(pre, 0) != 0 || k.size() <= suf.size() || k.compare(k.size() - suf.size(), suf.size(), suf) != 0)
         continue;
       const std::string L = k.substr(pre.size(), k.size() - pre.size() - suf.size());
       const std::string b = pre + L + "_";
-      std::printf("%8s %14.6g %14.6g %+9.2f %7s %7s %7s %9.2f  %s\n", L.c_str(), rep.number(b + "voxel_volume_mm3"),
-                  rep.number(b + "mesh_volume_mm3"), 100.0 * rep.number(b + "volume_rel_error"),
+      std::printf("%8s %14.6g %14.6g %+9.2f %12.4g %7s %7s %7s %9.2f  %s\n", L.c_str(),
+                  rep.number(b + "voxel_volume_mm3"), rep.number(b + "mesh_volume_mm3"),
+                  100.0 * rep.number(b + "volume_rel_error"), rep.number(b + "volume_allowance_mm3"),
                   text(b + "image_components").c_str(), text(b + "robust_components").c_str(),
                   text(b + "mesh_components").c_str(), 100.0 * rep.number(b + "voxel_agreement"),
                   rep.has(b + "name") ? text(b + "name").c_str() : "");

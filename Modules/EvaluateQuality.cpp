@@ -37,6 +37,7 @@ public:
 
     CertificateThresholds th;
     th.maxVolumeError = ctx.getDouble("max_volume_error") / 100.0;
+    th.smallComponentAllowance = ctx.getDouble("small_component_allowance");
     th.requireComponents = ctx.getBool("require_components");
     th.forbidSpuriousContacts = ctx.getBool("forbid_spurious_contacts");
     const bool wantCertificate = ctx.getBool("certificate");
@@ -156,7 +157,12 @@ void registerEvaluateQuality(ModuleRegistry& r) {
                 "compare the mesh with the label volume on port 1 (reference): volumes, components, "
                 "contacts, interfaces"),
       doubleParam("max_volume_error", 0.0, 0.0, 1000.0, "%",
-                  "fail when a label's |volume error| against its voxels exceeds this (0 = no check)"),
+                  "fail when a label's |volume error| against its voxels exceeds this (0 = no check) "
+                  "and its small-component allowance"),
+      doubleParam("small_component_allowance", 1.0, 0.0, 1000.0, "h^3",
+                  "volume a label may miss by, whatever max_volume_error, for each of its components "
+                  "smaller than an element: this x h^3, h the mean longest edge of the tets over the "
+                  "component (0 = percentages only)"),
       makeParam("require_components", ParamType::Bool, false, "",
                 "fail when a robust image component is lost, split or merged, or a spurious mesh "
                 "component exists"),

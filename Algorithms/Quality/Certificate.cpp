@@ -108,26 +108,46 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   // component.
   const size_t nComps = img.comps.size();
   std::vector<int64_t> coveredComp(nComps, 0), agreeComp(nComps, 0);
+  // The local element size of each image component: the mean longest edge (mm) of the tets that
+  // hold its voxel centres, whatever their label (a lost component's are the other labels' tets).
+  // Summed in whole micrometres so the sums do not depend on the thread count.
+  std::vector<int32_t> longestEdge(mesh.numTets());
+#pragma omp parallel for schedule(static)
+  for (int64_t t = 0; t < nTets; ++t) {
+    const auto& q = mesh.tets[size_t(t)];
+    double m = 0;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) m = std::max(m, norm(mesh.points[size_t(q[a])] - mesh.points[size_t(q[b])]));
+    longestEdge[size_t(t)] = int32_t(std::min(std::llround(m * 1e3), 2000000000LL));
+  }
+  std::vector<int64_t> edgeSumComp(nComps, 0);
   const size_t threads = static_cast<size_t>(omp_get_max_threads());
   std::vector<std::vector<int64_t>> cov(threads), agr(threads);
+  std::vector<std::vector<int64_t>> edg(threads);
   const VoxelOwners owners(mesh, g, progress, [&](int me, int64_t v, int32_t t, int w) {
     auto& c = cov[size_t(me)];
     auto& a = agr[size_t(me)];
+    auto& e = edg[size_t(me)];
     if (c.empty()) {
       c.assign(nComps, 0);
       a.assign(nComps, 0);
+      e.assign(nComps, 0);
     }
     const size_t comp = static_cast<size_t>(img.comp[size_t(v)]);
     c[comp] += w;
+    e[comp] += int64_t(w) * longestEdge[size_t(t)];
     if (mesh.materials[size_t(t)] == labels.data[size_t(v)]) a[comp] += w;
   });
   for (size_t th = 0; th < threads; ++th)
     for (size_t c = 0; c < cov[th].size(); ++c) {
       coveredComp[c] += cov[th][c];
       agreeComp[c] += agr[th][c];
+      edgeSumComp[c] += edg[th][c];
     }
   std::vector<std::vector<int64_t>>().swap(cov);
   std::vector<std::vector<int64_t>>().swap(agr);
+  std::vector<std::vector<int64_t>>().swap(edg);
+  std::vector<int32_t>().swap(longestEdge);
   const std::vector<Vec3>& ip = owners.indexPoints();
 
   // --- votes: every tet for the image component of its label at / next to its centroid -------
@@ -263,6 +283,14 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     auto& lc = byLabel[img.comps[c].label];
     ++lc.imageComponents;
     if (img.comps[c].cores > 0) ++lc.robustComponents;
+    // Smaller than an element: its volume below h^3, h its local element size.
+    if (coveredComp[c] <= 0) continue;
+    const double h = 1e-3 * double(edgeSumComp[c]) / double(coveredComp[c]);
+    const double cube = h * h * h;
+    if (double(img.comps[c].voxels) * g.voxelVolume() < cube) {
+      ++lc.smallComponents;
+      lc.volumeAllowance += cube;
+    }
   }
   for (const auto& c : mcomps) ++byLabel[c.label].meshComponents;
 
@@ -567,7 +595,8 @@ std::vector<std::string> certificateFailures(const CertificateResult& r, const C
     int over = 0;
     for (const auto& lc : r.labels) {
       if (lc.excluded || lc.voxels == 0) continue;
-      if (std::abs(lc.relError) > t.maxVolumeError) {
+      if (std::abs(lc.relError) > t.maxVolumeError &&
+          std::abs(lc.absError) > t.smallComponentAllowance * lc.volumeAllowance) {
         ++over;
         if (!worst || std::abs(lc.relError) > std::abs(worst->relError)) worst = &lc;
       }
@@ -575,11 +604,17 @@ std::vector<std::string> certificateFailures(const CertificateResult& r, const C
     if (worst) {
       std::snprintf(buf, sizeof buf,
                     "max_volume_error %.3g %%: %d label(s) exceed it; worst is %s at %+.2f %% "
-                    "(mesh %.6g mm^3, voxels %.6g mm^3); refine the background at thin layers "
-                    "(smaller cell_size / min_cell_size) or lower blend_sigma",
+                    "(mesh %.6g mm^3, voxels %.6g mm^3",
                     100.0 * t.maxVolumeError, over, r.labelText(worst->label).c_str(), 100.0 * worst->relError,
                     worst->meshVolume, worst->voxelVolume);
-      out.push_back(buf);
+      std::string msg = buf;
+      if (worst->smallComponents > 0 && t.smallComponentAllowance > 0) {
+        std::snprintf(buf, sizeof buf, ", beyond the %.6g mm^3 allowed for its %d component(s) smaller than an element",
+                      t.smallComponentAllowance * worst->volumeAllowance, worst->smallComponents);
+        msg += buf;
+      }
+      out.push_back(msg + "); refine the background at thin layers (smaller cell_size / min_cell_size) or lower "
+                          "blend_sigma");
     }
   }
   if (t.requireComponents) {
@@ -624,7 +659,8 @@ void writeCertificateReport(const CertificateResult& r, Report& report, size_t m
   report.set("cert_rule",
              "per label: every robust (6-erosion surviving) 26-connected image component kept, "
              "none split beyond its cores, none merged, no spurious mesh component; contacts by "
-             "voxel faces");
+             "voxel faces; volume within max_volume_error, or within h^3 per component smaller than "
+             "h^3 (h its local element size)");
   std::string ex;
   for (int32_t L : r.excludedLabels) ex += (ex.empty() ? "" : " ") + std::to_string(L);
   report.set("cert_excluded_labels", ex);
@@ -663,6 +699,8 @@ void writeCertificateReport(const CertificateResult& r, Report& report, size_t m
     report.set(k + "robust_components", ReportValue(int64_t(lc.robustComponents)));
     report.set(k + "mesh_components", ReportValue(int64_t(lc.meshComponents)));
     report.set(k + "voxel_agreement", ReportValue(lc.agreement));
+    report.set(k + "small_components", ReportValue(int64_t(lc.smallComponents)));
+    report.set(k + "volume_allowance_mm3", ReportValue(lc.volumeAllowance));
   }
   char buf[512];
   for (size_t i = 0; i < r.componentIssues.size() && i < maxListed; ++i) {

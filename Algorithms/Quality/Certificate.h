@@ -28,6 +28,16 @@
 //    Each listed issue carries the voxel count (image side) or volume (mesh side) and where it is
 //    in mm: centroid and bounding box.
 //
+// Small components (the volume check). A lattice cannot keep a component smaller than its
+// elements to a percentage of its volume: a one-voxel cavity under 4 mm elements is a tet or
+// nothing. Each image component C gets a local element size h_C: the mean, over its voxel centres
+// held by the mesh, of the longest edge of the tet holding the centre (whatever that tet's label;
+// a component no tet holds has none). C is *small* when its voxel volume is below h_C^3. A label's
+// volume allowance is the sum of h_C^3 over its small components; with thresholds, a label passes
+// the volume check when |absolute error| <= max(max_volume_error x voxel volume, allowance x
+// small_component_allowance). A label made only of small components is so judged by presence
+// and topology (the component rule: a small component with a core voxel must still be kept).
+//
 // Contacts. Image: two labels touch when some voxel pair sharing a face carries them; the contact
 // area is the number of such voxel faces x the face area. Mesh: the area of the faces between a
 // tet of each label. A *spurious* contact is a pair that touches in the mesh but not in the image
@@ -112,6 +122,9 @@ struct LabelCertificate {
   int lost = 0, lostSmall = 0, split = 0, merged = 0, spurious = 0;
   double agreement = 0.0;   // fraction of this label's voxel centres inside its own tets
   int64_t nonmanifoldEdges = 0, nonmanifoldVertices = 0;
+  // Components smaller than an element (below): how many, and the sum of their h^3 [mm^3].
+  int smallComponents = 0;
+  double volumeAllowance = 0.0;
   int64_t strippedVoxels = 0;  // voxels of a stripped exterior (not in `voxels`)
   double strippedVolume = 0.0; // [mm^3]
 };
@@ -146,6 +159,9 @@ struct CertificateThresholds {
   double maxVolumeError = 0.0;        // largest allowed |relative volume error|; 0 = not checked
   bool requireComponents = false;     // no lost, split, merged or spurious component
   bool forbidSpuriousContacts = false;
+  // A label whose |absolute error| is at most this x its volumeAllowance passes the volume check
+  // whatever its relative error (0 = every label by maxVolumeError alone).
+  double smallComponentAllowance = 1.0;
 };
 
 // Empty when the result meets the thresholds; otherwise one message per failed threshold naming

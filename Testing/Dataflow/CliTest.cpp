@@ -188,9 +188,21 @@ TEST(Cli, CertifyComparesAMeshWithItsLabelsAndFailsOnThresholds) {
   r = run("certify " + files + " --require-components");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("the mesh fails its certificate: require_components: 1 lost"), std::string::npos) << r.out;
+  // The lost 7-voxel component (7 mm^3) is smaller than the 6 mm lattice's elements (h^3 = 57
+  // mm^3): judged by presence (lost, it fails the component rule), not by its -100 %.
   r = run("certify " + files + " --strict");
   EXPECT_EQ(r.code, 1);
-  EXPECT_NE(r.out.find("max_volume_error 3 %"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("require_components: 1 lost"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("max_volume_error 3 %"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("allow mm^3"), std::string::npos) << r.out;
+  // Percentages alone: the label fails its volume too.
+  r = run("certify " + files + " --strict --small-component-allowance 0");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("max_volume_error 3 %: 1 label(s) exceed it; worst is label 2 at -100.00 %"), std::string::npos)
+      << r.out;
+  r = run("certify " + files + " --strict --small-component-allowance lots");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("small_component_allowance"), std::string::npos) << r.out;
 
   // A mesh alone: its quality (a mesh from another tool has no voxels to compare with).
   r = run("certify " + tmp.file("blob.vtu"));

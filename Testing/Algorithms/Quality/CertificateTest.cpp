@@ -464,6 +464,72 @@ TEST(Certificate, AMeshLabelAbsentFromTheImageIsSpuriousAndBadInputIsRefused) {
   EXPECT_THROW(certifyMesh(broken, v, p), InputError);
 }
 
+// A 24^3 volume of 1 mm voxels against the voxel mesh of a 6^3 volume of 4 mm voxels over the
+// same box: every tet's longest edge is the coarse voxel's diagonal, 4 sqrt(3) mm, so h^3 = 332.6
+// mm^3 everywhere and a component is smaller than an element below 332 voxels.
+TEST(Certificate, ComponentsSmallerThanAnElementAreJudgedByPresenceWithinTheirAllowance) {
+  LabelVolume fine = blankVolume(24, 24, 24, 1.0, 1);
+  LabelVolume coarse = blankVolume(6, 6, 6, 4.0, 1);
+  coarse.grid.origin = fine.grid.origin + Vec3{1.5, 1.5, 1.5};
+  const double h = 4.0 * std::sqrt(3.0), cube = h * h * h;
+  fine.at(6, 6, 6) = 7;                 // a one-voxel cavity: coreless
+  for (int k = 13; k <= 15; ++k)         // a 3x3x3 cube with one core voxel
+    for (int j = 13; j <= 15; ++j)
+      for (int i = 13; i <= 15; ++i) fine.at(i, j, k) = 8;
+  for (int k = 0; k < 8; ++k)            // an 8^3 = 512-voxel block: larger than an element
+    for (int j = 16; j < 24; ++j)
+      for (int i = 16; i < 24; ++i) fine.at(i, j, k) = 9;
+  coarse.at(1, 1, 1) = 7; // the cavity as one coarse voxel: 64 mm^3 for 1 (+6300 %)
+  coarse.at(4, 4, 0) = 9; coarse.at(5, 4, 0) = 9; coarse.at(4, 5, 0) = 9; coarse.at(5, 5, 0) = 9; // 256 of 512
+  coarse.at(4, 4, 1) = 9; coarse.at(5, 4, 1) = 9; coarse.at(4, 5, 1) = 9; coarse.at(5, 5, 1) = 9; // all of 512
+  TetMesh m = voxelMesh(coarse);
+  CertificateResult r = certify(m, fine);
+  const auto& c7 = labelOf(r, 7);
+  EXPECT_EQ(c7.smallComponents, 1);
+  EXPECT_NEAR(c7.volumeAllowance, cube, 1e-3 * cube); // lengths summed in micrometres
+  EXPECT_NEAR(c7.relError, 63.0, 1e-9);
+  EXPECT_EQ(labelOf(r, 8).smallComponents, 1);
+  EXPECT_EQ(labelOf(r, 8).lost, 1); // robust and absent: small does not excuse it
+  EXPECT_EQ(r.spurious + r.split + r.merged, 0);
+  EXPECT_EQ(labelOf(r, 9).smallComponents, 0);
+  EXPECT_EQ(labelOf(r, 9).volumeAllowance, 0.0);
+  EXPECT_NEAR(labelOf(r, 9).relError, 0.0, 1e-12);
+  EXPECT_EQ(labelOf(r, 1).smallComponents, 0);
+  // The volume check passes (label 7 is +6300 % but 63 mm^3 < h^3; label 8 is -100 % = -27 mm^3);
+  // the component rule still fails on the lost cube.
+  CertificateThresholds th;
+  th.maxVolumeError = 0.015;
+  EXPECT_TRUE(certificateFailures(r, th).empty());
+  th.requireComponents = true;
+  auto f = certificateFailures(r, th);
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_NE(f[0].find("1 lost"), std::string::npos) << f[0];
+  EXPECT_NE(f[0].find("label 8, image component of 27 voxels"), std::string::npos) << f[0];
+  // Without the allowance, percentages alone: label 7 is the worst.
+  th.requireComponents = false;
+  th.smallComponentAllowance = 0.0;
+  f = certificateFailures(r, th);
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_NE(f[0].find("2 label(s) exceed it; worst is label 7 at +6300.00 %"), std::string::npos) << f[0];
+  // An allowance smaller than the error: the message says what was allowed.
+  th.smallComponentAllowance = 0.1; // 33 mm^3 < 63
+  f = certificateFailures(r, th);
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_NE(f[0].find("1 label(s) exceed it; worst is label 7"), std::string::npos) << f[0];
+  EXPECT_NE(f[0].find("allowed for its 1 component(s) smaller than an element"), std::string::npos) << f[0];
+  // A big label is judged by its percentage: half of label 9 missing fails at -50 %.
+  coarse.at(4, 4, 1) = 1; coarse.at(5, 4, 1) = 1; coarse.at(4, 5, 1) = 1; coarse.at(5, 5, 1) = 1;
+  r = certify(voxelMesh(coarse), fine);
+  th.smallComponentAllowance = 1.0;
+  f = certificateFailures(r, th);
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_NE(f[0].find("worst is label 9 at -50.00 %"), std::string::npos) << f[0];
+  Report rep;
+  writeCertificateReport(r, rep);
+  EXPECT_EQ(std::get<int64_t>(*rep.find("cert_label_7_small_components")), 1);
+  EXPECT_NEAR(std::get<double>(*rep.find("cert_label_7_volume_allowance_mm3")), cube, 1e-3 * cube);
+}
+
 TEST(Certificate, SameResultOnOneAndTwoThreads) {
   std::mt19937 rng(7);
   const LabelVolume v = randomSegmentation(rng);
