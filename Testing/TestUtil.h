@@ -15,6 +15,18 @@
 
 namespace tetflow::test {
 
+// Under AddressSanitizer (the sanitizer half of CI) the heaviest random-case loops run every other
+// case: memory errors show on a few cases, and the Release half runs them all. sanitizerCases(n):
+// how many of n cases to run (n, or half of it rounded up); sanitizerSkips(i): whether case i is
+// left out (the odd ones).
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kUnderSanitizers = true;
+#else
+inline constexpr bool kUnderSanitizers = false;
+#endif
+inline constexpr int sanitizerCases(int n) { return kUnderSanitizers ? (n + 1) / 2 : n; }
+inline constexpr bool sanitizerSkips(int i) { return kUnderSanitizers && i % 2 == 1; }
+
 // A unique empty folder for one test; removed (with its contents) when the object dies.
 class TempDir {
 public:

@@ -103,7 +103,7 @@ TEST(Cleaver, RandomLabelVolumesGiveValidConformingMeshes) {
     CleaveParams cp;
     cp.interface_points = exact ? CleaveParams::InterfacePoints::Exact : CleaveParams::InterfacePoints::Linear;
     for (int kind = 0; kind < 4; ++kind)
-      for (unsigned seed = 1; seed <= 6; ++seed)
+      for (unsigned seed = 1; seed <= unsigned(test::sanitizerCases(6)); ++seed)
         for (double cell : {1.0, 1.7, 2.6}) {
           const auto vol = randomVolume(kind, 1000 * kind + seed);
           const std::string what = "kind " + std::to_string(kind) + " seed " + std::to_string(seed) + " cell " +

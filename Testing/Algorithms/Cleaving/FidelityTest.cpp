@@ -24,6 +24,7 @@
 #include "Algorithms/SizingField/SizingField.h"
 #include "Fixtures/LabelShapes.h"
 #include "Fixtures/RandomLabels.h"
+#include "TestUtil.h"
 
 namespace tetflow {
 namespace {
@@ -153,7 +154,7 @@ LabelVolume withMargin(const LabelVolume& in, int margin, int32_t exterior) {
 TEST(Fidelity, RandomSegmentationsAtEveryCellSizeAndOffset) {
   std::mt19937 rng(25);
   double worst = 0.0, worstAll = 0.0;
-  for (int c = 0; c < 2; ++c) {
+  for (int c = 0; c < test::sanitizerCases(2); ++c) {
     const LabelVolume v = withMargin(test::voronoiWithSheets(rng, 32), 2, 99);
     for (double cell = 2.0 + 0.5 * c; cell <= 6.0; cell += 1.0) {
       const double padding = double(rng() % 1000) / 1000.0; // voxels
@@ -178,7 +179,7 @@ TEST(Fidelity, RandomSegmentationsAtEveryCellSizeAndOffset) {
 TEST(Fidelity, TheCleavesFaceNeighboursFollowTheImprovementToTheLabelFinish) {
   std::mt19937 rng(53);
   int kept = 0, changed = 0, none = 0;
-  for (int c = 0; c < 8; ++c) {
+  for (int c = 0; c < test::sanitizerCases(8); ++c) { // under the sanitizers one case per cell size
     const LabelVolume v = withMargin(test::voronoiWithSheets(rng, 24), 2, 99);
     const double cell = 2.0 + double(c % 4), padding = double(rng() % 1000) / 1000.0;
     SCOPED_TRACE(::testing::Message() << "case " << c << " cell " << cell << " padding " << padding);
@@ -287,7 +288,8 @@ TEST(Fidelity, FurtherLocalRepairRoundsNeverLeaveMoreThanTheFirst) {
     const LabelMaterials mats(vol, kDefaultBlendSigma);
     const EdgeTopology thin(v);
     const std::vector<std::pair<int32_t, int32_t>> contacts = labelContactPairs(v);
-    for (double cell = 2.0 + 0.5 * double(c % 2); cell <= 6.0; cell += 1.0) {
+    // Under the sanitizers every other cell size.
+    for (double cell = 2.0 + 0.5 * double(c % 2); cell <= 6.0; cell += test::kUnderSanitizers ? 2.0 : 1.0) {
       const double padding = double(rng() % 1000) / 1000.0;
       SCOPED_TRACE(::testing::Message() << "case " << c << " cell " << cell << " padding " << padding);
       NullProgress np;
