@@ -13,6 +13,7 @@
 #include "Algorithms/Core/CancellableSort.h"
 #include "Algorithms/Core/Errors.h"
 #include "LabelTopology.h"
+#include "TetQuality.h"
 #include "VoxelOwners.h"
 
 namespace tetflow {
@@ -111,14 +112,13 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   // The local element size of each image component: the mean longest edge (mm) of the tets that
   // hold its voxel centres, whatever their label (a lost component's are the other labels' tets).
   // Summed in whole micrometres so the sums do not depend on the thread count.
-  std::vector<int32_t> longestEdge(mesh.numTets());
+  std::vector<int32_t> edgeMicrons(mesh.numTets());
 #pragma omp parallel for schedule(static)
   for (int64_t t = 0; t < nTets; ++t) {
     const auto& q = mesh.tets[size_t(t)];
-    double m = 0;
-    for (int a = 0; a < 4; ++a)
-      for (int b = a + 1; b < 4; ++b) m = std::max(m, norm(mesh.points[size_t(q[a])] - mesh.points[size_t(q[b])]));
-    longestEdge[size_t(t)] = int32_t(std::min(std::llround(m * 1e3), 2000000000LL));
+    const double m = longestEdge(mesh.points[size_t(q[0])], mesh.points[size_t(q[1])], mesh.points[size_t(q[2])],
+                                 mesh.points[size_t(q[3])]);
+    edgeMicrons[size_t(t)] = int32_t(std::min(std::llround(m * 1e3), 2000000000LL));
   }
   std::vector<int64_t> edgeSumComp(nComps, 0);
   const size_t threads = static_cast<size_t>(omp_get_max_threads());
@@ -135,7 +135,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
     }
     const size_t comp = static_cast<size_t>(img.comp[size_t(v)]);
     c[comp] += w;
-    e[comp] += int64_t(w) * longestEdge[size_t(t)];
+    e[comp] += int64_t(w) * edgeMicrons[size_t(t)];
     if (mesh.materials[size_t(t)] == labels.data[size_t(v)]) a[comp] += w;
   });
   for (size_t th = 0; th < threads; ++th)
@@ -147,7 +147,7 @@ CertificateResult certifyMesh(const TetMesh& mesh, const LabelVolume& labels, Pr
   std::vector<std::vector<int64_t>>().swap(cov);
   std::vector<std::vector<int64_t>>().swap(agr);
   std::vector<std::vector<int64_t>>().swap(edg);
-  std::vector<int32_t>().swap(longestEdge);
+  std::vector<int32_t>().swap(edgeMicrons);
   const std::vector<Vec3>& ip = owners.indexPoints();
 
   // --- votes: every tet for the image component of its label at / next to its centroid -------
