@@ -99,10 +99,15 @@ const char* kUsage =
     "  --background B         regular (default), octree or particles; octree and particles follow a\n"
     "                         sizing field from the image's features\n"
     "  --adaptive             the same as --background octree\n"
-    "  --cell-size MM         regular: the lattice's cell edge (default 2 x the voxel size)\n"
-    "  --min-size MM, --max-size MM  octree, particles: the element sizes' range (default 2 x and\n"
-    "                         16 x the voxel size)\n"
+    "  --cell-size MM         regular: the lattice's cell edge (default 4 x the voxel size; with the\n"
+    "                         thin-layer refinement, the power of two times the voxel nearest to it)\n"
+    "  --min-size MM, --max-size MM  octree, particles: the element sizes' range (default 4 x and\n"
+    "                         16 x the voxel size; particles 2 x and 16 x)\n"
     "  --label-table FILE     tissue names for the labels (default: a table beside the volume)\n"
+    "  --max-tets N           at most N tets: every size grows (the cell, the sizing field) until the\n"
+    "                         mesh is predicted to fit; refused, naming the layer, when it cannot\n"
+    "  --keep-exterior        keep label 0 outside the body (by default it is stripped when the box's\n"
+    "                         faces carry it: the air around a head)\n"
     "  --certify              fail unless every label is within 1.5 %, every component is kept, no\n"
     "                         spurious contact appears and every tet is in [10, 160] deg\n"
     "  --save-net NET.srn     also write the network, to open in tetflow-gui or run again\n"
@@ -557,7 +562,7 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
   namespace fs = std::filesystem;
   MeshLabelsOptions o;
   std::string saveNet, background;
-  bool adaptive = false, noRun = false, sizeGiven = false, rangeGiven = false;
+  bool adaptive = false, noRun = false, sizeGiven = false, rangeGiven = false, keepExterior = false;
   std::vector<std::string> rest{"mesh"}; // the options `run` has, parsed below
   for (size_t i = 1; i < a.size(); ++i) {
     const std::string& s = a[i];
@@ -584,6 +589,16 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
       else if (s == "--max-size") o.maxSize = size(), rangeGiven = true;
       else if (s == "--label-table") o.labelTable = value();
       else if (s == "--certify") o.certify = true;
+      else if (s == "--keep-exterior") keepExterior = true;
+      else if (s == "--max-tets") {
+        const std::string v = value();
+        size_t used = 0;
+        long long n = -1;
+        try { n = std::stoll(v, &used); } catch (...) {}
+        if (used != v.size() || n < 1 || n > 2147483647LL)
+          throw std::invalid_argument("--max-tets '" + v + "' must be a whole number of tets from 1 to 2147483647");
+        o.maxTets = n;
+      }
       else if (s == "--save-net") saveNet = value();
       else if (s == "--no-run") noRun = true;
       else rest.push_back(s);
@@ -628,6 +643,7 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
       return kExitLoad;
     }
     grid = v.grid;
+    if (!keepExterior) o.exterior = exteriorLabelOf(v);
     if (!r.quiet) {
       std::printf("mesh: %s: %lld x %lld x %lld voxels of %s x %s x %s mm\n", o.labels.c_str(),
                   static_cast<long long>(grid.dims[0]), static_cast<long long>(grid.dims[1]),
@@ -642,6 +658,12 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
                 o.certify ? "the run fails unless the mesh passes the certificate (--certify)"
                           : "the certificate is reported (--certify to fail on it)");
     for (const auto& l : lines) std::printf("mesh: %s\n", l.c_str());
+    if (o.maxTets > 0)
+      std::printf("mesh: at most %lld tets (--max-tets): the sizes grow until the mesh is predicted to fit\n",
+                  static_cast<long long>(o.maxTets));
+    std::printf("mesh: %s\n", o.exterior ? ("label " + std::to_string(*o.exterior) +
+                                              " outside the body is stripped (--keep-exterior keeps it)").c_str()
+                                           : "nothing is stripped (no label 0 on the box's faces)");
     std::printf("mesh: writing %s\n", o.output.c_str());
     std::fflush(stdout);
   }
@@ -688,7 +710,29 @@ int cmdMesh(const std::vector<std::string>& a, const ModuleRegistry& reg) {
     for (const auto& p : problems) std::cerr << "tetflow: " << p << "\n";
     return kExitLoad;
   }
-  return runNetwork(net.get(), r);
+  if (run.maxTets <= 0) return runNetwork(net.get(), r);
+  // With a budget: the prediction is measured to overestimate a little; should the mesh still
+  // come out above it, the run is made once more with the budget cut by the excess.
+  int64_t tets = 0;
+  auto count = [&](const Executor& e) {
+    tets = 0;
+    if (const auto* st = e.state("m3"); st && st->report.has("tets")) tets = int64_t(st->report.number("tets"));
+  };
+  int rc = runNetwork(net.get(), r, count);
+  if (rc != 0 || tets <= run.maxTets) return rc;
+  const int64_t tighter = std::max<int64_t>(1, int64_t(double(run.maxTets) * double(run.maxTets) / double(tets) * 0.98));
+  if (!r.quiet)
+    std::printf("mesh: %lld tets, above --max-tets %lld: meshing again within %lld predicted tets\n",
+                static_cast<long long>(tets), static_cast<long long>(run.maxTets), static_cast<long long>(tighter));
+  net->setParameterText("m2", "max_tets", std::to_string(tighter));
+  rc = runNetwork(net.get(), r, count);
+  if (rc == 0 && tets > run.maxTets) {
+    std::cerr << "tetflow: the mesh has " << tets << " tets, above --max-tets " << run.maxTets
+              << " (the prediction missed by " << formatDouble(100.0 * (double(tets) / double(tighter) - 1.0))
+              << " %); give a smaller --max-tets\n";
+    return kExitModuleFailed;
+  }
+  return rc;
 }
 
 int cmdValidate(const RunArgs& args, const ModuleRegistry& reg) {

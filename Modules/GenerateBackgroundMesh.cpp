@@ -6,6 +6,7 @@
 #include "Algorithms/BackgroundMesh/BccLattice.h"
 #include "Algorithms/BackgroundMesh/OctreeBcc.h"
 #include "Algorithms/BackgroundMesh/Particles.h"
+#include "Algorithms/BackgroundMesh/TetBudget.h"
 #include "Algorithms/BackgroundMesh/ThinLayers.h"
 #include "StandardModules.h"
 
@@ -61,7 +62,6 @@ public:
                                   : ctx.inputAs<MaterialsData>(0).value->grid();
     const std::string kind = ctx.getString("kind");
     const bool haveSizing = ctx.hasInput(1);
-    BackgroundMesh bg;
     Report& r = ctx.report();
     r.set("kind", kind);
     // Thin layers: the labels the edges are checked against (the argmax of indicator functions).
@@ -78,72 +78,157 @@ public:
         thin.emplace(*argmax, mode);
       }
     }
-    if (kind == "particles") {
-      if (!haveSizing)
-        throw InputError("kind particles needs a sizing field on input port 1 'sizing': connect "
-                         "ComputeSizingField's output, or use kind regular_bcc");
-      warnIfApart(ctx, grid, ctx.inputAs<ScalarVolumeData>(1).value);
-      ParticleParams p;
-      p.padding = ctx.getDouble("padding");
-      p.min_size = ctx.getDouble("min_cell_size");
-      p.max_size = ctx.getDouble("max_cell_size");
-      p.size_scale = ctx.getDouble("particle_size_scale");
-      p.max_iterations = int(ctx.getInt("particle_iterations"));
-      p.theta = ctx.getDouble("particle_theta");
-      p.move_tolerance = ctx.getDouble("particle_tolerance");
-      p.min_angle = ctx.getDouble("particle_min_angle");
-      p.max_angle = ctx.getDouble("particle_max_angle");
-      p.seed = uint32_t(ctx.getInt("particle_seed"));
-      ParticleMeshResult pm = generateParticleMesh(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress());
-      bg = std::move(pm.background);
-      reportParticleMesh(pm.stats, r);
-      ctx.log("particles: " + std::to_string(pm.stats.iterations) + " iterations (" +
-              formatReportValue(ReportValue(pm.stats.secondsPerIteration)) + " s each, stopped by " +
-              pm.stats.stopReason + "); Delaunay dihedral angles [" +
-              formatReportValue(ReportValue(pm.stats.improve.minBefore)) + ", " +
-              formatReportValue(ReportValue(pm.stats.improve.maxBefore)) + "] -> [" +
-              formatReportValue(ReportValue(pm.stats.improve.minAfter)) + ", " +
-              formatReportValue(ReportValue(pm.stats.improve.maxAfter)) + "] after sliver removal");
-    } else if (kind == "octree_bcc") {
-      if (!haveSizing)
-        throw InputError("kind octree_bcc needs a sizing field on input port 1 'sizing': connect "
-                         "ComputeSizingField's output, or use kind regular_bcc");
-      OctreeBccParams p;
-      p.min_cell_size = ctx.getDouble("min_cell_size");
-      p.max_cell_size = ctx.getDouble("max_cell_size");
-      p.padding = ctx.getDouble("padding");
-      p.thin_layer_cell_size = ctx.getDouble("thin_layer_cell_size");
-      std::shared_ptr<const MaterialSet> mats;
-      if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
-      const ScalarVolume& sizing = ctx.inputAs<ScalarVolumeData>(1).value;
-      warnIfApart(ctx, grid, sizing);
-      OctreeBccResult o = generateOctreeBcc(grid, sizing, p, ctx.progress(), mats.get(), thin ? &*thin : nullptr);
-      bg = std::move(o.background);
-      r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
-                              std::to_string(bg.cells[2]));
-      reportOctreeBcc(o.stats, r);
+    // The label volume the tets are predicted against (and the budget fitted to).
+    // Indicator functions give their argmax, when the thin layers made it already or a budget needs it.
+    const int64_t maxTets = ctx.getInt("max_tets");
+    const LabelVolume* labels = nullptr;
+    if (in->type() == PortType::LabelVolume) {
+      labels = &ctx.inputAs<LabelVolumeData>(0).value;
     } else {
-      if (haveSizing)
-        ctx.log("kind regular_bcc ignores the sizing field on port 1 (uniform cell_size); use kind "
-                "octree_bcc to grade the lattice by it");
-      BccParams p;
-      p.cell_size = ctx.getDouble("cell_size");
-      p.padding = ctx.getDouble("padding");
-      if (thin) {
-        OctreeBccParams op;
-        op.thin_layer_cell_size = ctx.getDouble("thin_layer_cell_size");
+      if (!argmax && maxTets > 0) argmax.emplace(ctx.inputAs<MaterialsData>(0).value->dominantLabels());
+      if (argmax) labels = &*argmax;
+    }
+    std::optional<int32_t> exterior;
+    {
+      const std::string e = ctx.getString("max_tets_exterior");
+      if (e != "none") {
+        char* end = nullptr;
+        const long v = std::strtol(e.c_str(), &end, 10);
+        if (e.empty() || *end != '\0')
+          throw InputError("parameter 'max_tets_exterior' = '" + e + "': use 'none' or the label CleaveMesh's strip_exterior removes");
+        exterior = int32_t(v);
+      }
+    }
+    // Every size times `scale` (1 = as the parameters ask); the last build's report wins.
+    std::optional<ScalarVolume> scaledSizing;
+    const double thinRatio = ctx.getDouble("thin_layer_ratio");
+    auto build = [&](double scale) -> BackgroundMesh {
+      // A budget relaxes the thin-layer refinement by the same factor (the layers' tets are most
+      // of a head's, and the lattice's cells move in steps of two).
+      if (thin) thin->setSplitRatio(std::min(8.0, thinRatio * scale));
+      BackgroundMesh bg;
+      if (kind == "particles") {
+        if (!haveSizing)
+          throw InputError("kind particles needs a sizing field on input port 1 'sizing': connect "
+                           "ComputeSizingField's output, or use kind regular_bcc");
+        warnIfApart(ctx, grid, ctx.inputAs<ScalarVolumeData>(1).value);
+        ParticleParams p;
+        p.padding = ctx.getDouble("padding");
+        p.min_size = ctx.getDouble("min_cell_size") * scale;
+        p.max_size = ctx.getDouble("max_cell_size") * scale;
+        p.size_scale = ctx.getDouble("particle_size_scale") * scale;
+        p.max_iterations = int(ctx.getInt("particle_iterations"));
+        p.theta = ctx.getDouble("particle_theta");
+        p.move_tolerance = ctx.getDouble("particle_tolerance");
+        p.min_angle = ctx.getDouble("particle_min_angle");
+        p.max_angle = ctx.getDouble("particle_max_angle");
+        p.seed = uint32_t(ctx.getInt("particle_seed"));
+        ParticleMeshResult pm = generateParticleMesh(grid, ctx.inputAs<ScalarVolumeData>(1).value, p, ctx.progress());
+        bg = std::move(pm.background);
+        reportParticleMesh(pm.stats, r);
+        ctx.log("particles: " + std::to_string(pm.stats.iterations) + " iterations (" +
+                formatReportValue(ReportValue(pm.stats.secondsPerIteration)) + " s each, stopped by " +
+                pm.stats.stopReason + "); Delaunay dihedral angles [" +
+                formatReportValue(ReportValue(pm.stats.improve.minBefore)) + ", " +
+                formatReportValue(ReportValue(pm.stats.improve.maxBefore)) + "] -> [" +
+                formatReportValue(ReportValue(pm.stats.improve.minAfter)) + ", " +
+                formatReportValue(ReportValue(pm.stats.improve.maxAfter)) + "] after sliver removal");
+      } else if (kind == "octree_bcc") {
+        if (!haveSizing)
+          throw InputError("kind octree_bcc needs a sizing field on input port 1 'sizing': connect "
+                           "ComputeSizingField's output, or use kind regular_bcc");
+        OctreeBccParams p;
+        p.min_cell_size = ctx.getDouble("min_cell_size") * scale;
+        p.max_cell_size = ctx.getDouble("max_cell_size") * scale;
+        p.padding = ctx.getDouble("padding");
+        p.thin_layer_cell_size = ctx.getDouble("thin_layer_cell_size");
         std::shared_ptr<const MaterialSet> mats;
         if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
-        OctreeBccResult o = generateThinLayerBcc(grid, p, op, *thin, ctx.progress(), mats.get());
+        const ScalarVolume* field = &ctx.inputAs<ScalarVolumeData>(1).value;
+        if (scale != 1.0) {
+          scaledSizing = *field;
+          for (float& v : scaledSizing->data) v = float(double(v) * scale);
+          field = &*scaledSizing;
+        }
+        const ScalarVolume& sizing = *field;
+        if (scale == 1.0) warnIfApart(ctx, grid, sizing);
+        OctreeBccResult o = generateOctreeBcc(grid, sizing, p, ctx.progress(), mats.get(), thin ? &*thin : nullptr);
         bg = std::move(o.background);
-        reportThinLayers(o.stats, r);
-        if (o.stats.thinLayerSplits > 0) r.set("levels", ReportValue(int64_t(o.stats.levels)));
+        r.set("root_cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
+                                std::to_string(bg.cells[2]));
+        reportOctreeBcc(o.stats, r);
       } else {
-        bg = generateRegularBcc(grid, p, ctx.progress());
+        if (haveSizing)
+          ctx.log("kind regular_bcc ignores the sizing field on port 1 (uniform cell_size); use kind "
+                  "octree_bcc to grade the lattice by it");
+        BccParams p;
+        p.cell_size = ctx.getDouble("cell_size") * scale;
+        p.padding = ctx.getDouble("padding");
+        if (thin) {
+          OctreeBccParams op;
+          op.thin_layer_cell_size = ctx.getDouble("thin_layer_cell_size");
+          std::shared_ptr<const MaterialSet> mats;
+          if (ctx.getBool("uniform_interfaces")) mats = materialsFromInput(in, ctx.getDouble("blend_sigma"));
+          OctreeBccResult o = generateThinLayerBcc(grid, p, op, *thin, ctx.progress(), mats.get());
+          bg = std::move(o.background);
+          reportThinLayers(o.stats, r);
+          if (o.stats.thinLayerSplits > 0) r.set("levels", ReportValue(int64_t(o.stats.levels)));
+        } else {
+          bg = generateRegularBcc(grid, p, ctx.progress());
+        }
+        r.set("cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
+                           std::to_string(bg.cells[2]));
+        r.set("cell_size_mm", triple(bg.cellSize[0], bg.cellSize[1], bg.cellSize[2]));
       }
-      r.set("cells", std::to_string(bg.cells[0]) + " x " + std::to_string(bg.cells[1]) + " x " +
-                         std::to_string(bg.cells[2]));
-      r.set("cell_size_mm", triple(bg.cellSize[0], bg.cellSize[1], bg.cellSize[2]));
+      return bg;
+    };
+    BackgroundMesh bg;
+    if (maxTets > 0) {
+      TetBudgetParams bp;
+      bp.maxTets = maxTets;
+      bp.strippedLabel = exterior;
+      double longest = 0.0;
+      for (int a = 0; a < 3; ++a) longest = std::max(longest, double(grid.dims[size_t(a)]) * grid.spacing[a]);
+      double smallest = 0.0;
+      if (kind == "regular_bcc") {
+        smallest = ctx.getDouble("cell_size");
+        bp.scaledWhat = "cell_size " + formatReportValue(ReportValue(smallest)) + " mm";
+      } else if (haveSizing) {
+        const SizeRange range = checkSizingField(ctx.inputAs<ScalarVolumeData>(1).value);
+        smallest = std::max(double(range.min), ctx.getDouble("min_cell_size"));
+        bp.scaledWhat = "the sizing field";
+      }
+      bp.maxScale = std::max(1.0, longest / std::max(smallest, 1e-9));
+      if (thinOn)
+        bp.refinementAdvice = "raise thin_layer_ratio or thin_layer_cell_size (the layer is then kept where it is "
+                              "thicker than the cells and closed by the label repair elsewhere), or set "
+                              "refine_thin_layers none";
+      ctx.progress().beginStage("tet budget");
+      TetBudgetResult fit = fitTetBudget(build, *labels, bp, ctx.progress());
+      ctx.progress().endStage();
+      bg = std::move(fit.background);
+      reportTetPrediction(fit.prediction, r);
+      r.set("max_tets", ReportValue(maxTets));
+      r.set("budget_scale", ReportValue(fit.scale));
+      r.set("budget_tries", ReportValue(int64_t(fit.tries.size())));
+      std::string trace;
+      for (const auto& t : fit.tries)
+        trace += (trace.empty() ? "" : ", ") + formatReportValue(ReportValue(t.scale)) + " -> " +
+                 std::to_string(int64_t(std::llround(t.predicted)));
+      ctx.log("max_tets " + std::to_string(maxTets) + ": sizes x " + formatReportValue(ReportValue(fit.scale)) +
+              " (tries: scale -> predicted tets: " + trace + ")");
+    } else {
+      bg = build(1.0);
+      if (labels) reportTetPrediction(predictCleavedTets(bg.tets(), *labels, exterior, ctx.progress()), r);
+    }
+    if (kind == "regular_bcc" && thin) {
+      const double asked = ctx.getDouble("cell_size") * (r.has("budget_scale") ? r.number("budget_scale") : 1.0);
+      const double got = std::max({bg.cellSize[0], bg.cellSize[1], bg.cellSize[2]});
+      if (std::abs(got / asked - 1.0) > 0.1)
+        ctx.log("cells of " + formatReportValue(ReportValue(got)) + " mm for cell_size " + formatReportValue(ReportValue(asked)) +
+                " mm: with refine_thin_layers the cells are the power of two times the voxel nearest to it, so that "
+                "the refinement's levels fall on the same sizes and a coarser cell never gives more tets "
+                "(refine_thin_layers none keeps cell_size as it is)");
     }
     if (!bg.kind.empty()) attachLatticeKind(bg); // none for particles: CleaveMesh then uses per-vertex alphas
     r.set("vertices", ReportValue(int64_t(bg.mesh.numPoints())));
@@ -212,7 +297,23 @@ void registerGenerateBackgroundMesh(ModuleRegistry& r) {
   thinOn.choices = {"separating", "all", "none"};
   ParamSpec thinCell = doubleParam("thin_layer_cell_size", 0.0, 0.0, std::nullopt, "mm",
                                    "refine_thin_layers: splitting stops at cells no longer than this (0 = sqrt 2 x the voxel size: cells within a factor sqrt 2 of the voxels)");
-  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, ptol, pmin, pmax, pseed, thinOn, thinCell};
+  ParamSpec thinRatio = doubleParam("thin_layer_ratio", 2.0, 1.0, 8.0, "",
+                                    "refine_thin_layers: a cell whose edge misses a layer is split only while the edge "
+                                    "is longer than this x the layer's extent along it (1 = until no edge misses it or "
+                                    "thin_layer_cell_size is reached; larger = as fine as the layer is thin, fewer "
+                                    "tets, the label repair closes what is left)");
+  ParamSpec maxTets = makeParam("max_tets", ParamType::Int, int64_t(0), "",
+                                "a budget for the mesh cleaving makes (predicted from the background: a tet of one label "
+                                "stays one tet, a tet cut by an interface becomes about 2): every size (cell_size, the "
+                                "sizing field, the particles' spacing) and thin_layer_ratio (up to 8) are scaled up by "
+                                "one factor until the prediction fits, or the module fails naming the layer that cannot "
+                                "be kept within it; 0 = no budget");
+  maxTets.min = 0.0;
+  maxTets.max = 2147483647.0;
+  ParamSpec maxTetsExt = makeParam("max_tets_exterior", ParamType::String, std::string("none"), "",
+                                   "max_tets: the label CleaveMesh's strip_exterior removes (its tets do not count), or none");
+  m.params = {kind, cs, pad, minc, maxc, uni, sigma, pscale, pit, ptheta, ptol, pmin, pmax, pseed, thinOn, thinCell, thinRatio,
+              maxTets, maxTetsExt};
   m.summaryKeys = {"cells", "levels", "tets"};
   m.factory = [] { return std::make_unique<GenerateBackgroundMesh>(); };
   r.add(std::move(m));

@@ -36,6 +36,17 @@ std::string defaultMeshFileName(const std::string& labelsPath, const std::string
   return stem + ext;
 }
 
+std::optional<int32_t> exteriorLabelOf(const LabelVolume& v) {
+  const auto& d = v.grid.dims;
+  for (int64_t k = 0; k < d[2]; ++k)
+    for (int64_t j = 0; j < d[1]; ++j) {
+      const bool face = k == 0 || k == d[2] - 1 || j == 0 || j == d[1] - 1;
+      for (int64_t i = 0; i < d[0]; i += face ? 1 : std::max<int64_t>(1, d[0] - 1))
+        if (v.at(i, j, k) == 0) return 0;
+    }
+  return std::nullopt;
+}
+
 double meshVoxelSize(const GridGeometry& grid) {
   return std::max({grid.spacing[0], grid.spacing[1], grid.spacing[2]});
 }
@@ -51,10 +62,13 @@ std::vector<std::string> chooseMeshSizes(MeshLabelsOptions& o, const GridGeometr
                                   " to change)"
                             : " (" + option + ")"));
   };
+  // The lattices' layers thinner than their cells are refined where they are missed (the thin-
+  // layer refinement, to their own thickness), so their sizes need not follow the thinnest layer:
+  // 4 x the voxel. The particles have no such refinement: their smallest size is 2 x the voxel.
   if (o.background == MeshBackground::Regular) {
-    pick(o.cellSize, 2, "cell size", "--cell-size");
+    pick(o.cellSize, 4, "cell size", "--cell-size");
   } else {
-    pick(o.minSize, 2, "smallest element size", "--min-size");
+    pick(o.minSize, o.background == MeshBackground::Octree ? 4 : 2, "smallest element size", "--min-size");
     pick(o.maxSize, 16, "largest element size", "--max-size");
   }
   return lines;
@@ -70,14 +84,18 @@ Network buildMeshLabelsNetwork(const ModuleRegistry& registry, const MeshLabelsO
                                                                 : "an electrostatic particle mesh") +
                 " by the sizing field from the local feature size (ComputeSizingField, sizes " + formatDouble(o.minSize) +
                 " to " + formatDouble(o.maxSize) + " mm, growth 0.5 mm/mm as in the adaptive phantom nets)";
+  const std::string stripText = o.exterior ? "label " + std::to_string(*o.exterior) + " outside the body stripped"
+                                            : "nothing stripped";
+  const std::string budgetText =
+      o.maxTets > 0 ? ", every size scaled up until the mesh is predicted to fit " + std::to_string(o.maxTets) + " tets" : "";
   net.setNetworkNote("A label volume meshed as `tetflow mesh` meshes it: read with its tissue names, " + backgroundText +
-                     ", lattice cleaving with the modules' defaults (label repair, the air outside stripped, volume "
-                     "correction, improvement), quality and certificate against the voxels" +
+                     budgetText + ", lattice cleaving with the modules' defaults (label repair, volume correction, "
+                     "improvement; " + stripText + "), quality and certificate against the voxels" +
                      (o.certify ? " (failing the run unless every label is within 1.5 %, every component is kept, no "
                                   "spurious contact appears and every dihedral angle is in [10, 160] deg)"
                                 : " (reported; nothing fails on it)") +
-                     ", written to a mesh file. Sizes scale with the voxels: 2 x the voxel for the lattice's cells, "
-                     "2 x to 16 x for the sizing field.");
+                     ", written to a mesh file. Sizes scale with the voxels: 4 x the voxel for the lattice's cells, "
+                     "4 x to 16 x for the octree's sizing field (2 x to 16 x for the particles').");
   net.addModule("ReadLabelVolume", "m1", 40, 40);
   net.setParameterText("m1", "filename", o.labels);
   if (!o.labelTable.empty()) net.setParameterText("m1", "label_table", o.labelTable);
@@ -96,6 +114,11 @@ Network buildMeshLabelsNetwork(const ModuleRegistry& registry, const MeshLabelsO
   } else {
     net.setParameterText("m2", "cell_size", formatDouble(o.cellSize));
   }
+  if (o.exterior) {
+    net.setParameterText("m3", "strip_exterior", std::to_string(*o.exterior));
+    net.setParameterText("m2", "max_tets_exterior", std::to_string(*o.exterior));
+  }
+  if (o.maxTets > 0) net.setParameterText("m2", "max_tets", std::to_string(o.maxTets));
   if (o.certify) {
     net.setParameterText("m4", "max_volume_error", "1.5");
     net.setParameterText("m4", "require_components", "true");

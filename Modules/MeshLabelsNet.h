@@ -38,12 +38,22 @@ struct MeshLabelsOptions {
   // spurious contact, every tet in [10, 160] deg): the run fails when the mesh misses one (the
   // mesh is still written). Off: the certificate is computed and reported, nothing fails on it.
   bool certify = false;
+  // CleaveMesh's strip_exterior: the label whose exterior (its voxels connected to the box) is
+  // removed, e.g. the air around a head (exteriorLabelOf chooses it); none keeps everything.
+  std::optional<int32_t> exterior;
+  // GenerateBackgroundMesh's max_tets (0 = no budget): every size is scaled up until the mesh
+  // cleaving makes is predicted to fit.
+  int64_t maxTets = 0;
 };
+
+// The label tetflow mesh strips by default: 0 when some voxel on the box's faces carries it (the
+// background around a segmented body), else none.
+std::optional<int32_t> exteriorLabelOf(const LabelVolume& labels);
 
 // The voxel size the defaults scale with: the longest side of a voxel (mm).
 double meshVoxelSize(const GridGeometry& grid);
 // Fills the sizes options leaves at 0 for the background it asks for, from the voxels: cell size
-// 2 x the voxel (regular); sizing field from 2 x to 16 x the voxel (octree, particles). Returns
+// 4 x the voxel (regular); sizing field from 4 x (octree; particles 2 x) to 16 x the voxel. Returns
 // one line per size saying what it is and whether it was chosen or given.
 std::vector<std::string> chooseMeshSizes(MeshLabelsOptions& options, const GridGeometry& grid);
 

@@ -32,10 +32,24 @@ SizeRange checkSizingField(const ScalarVolume& sizing) {
   return r;
 }
 
-BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, Progress& progress) {
+double bccSnappedCell(const BccParams& p) {
+  if (!(p.snap_voxel > 0.0) || !(p.cell_size > 0.0) || !std::isfinite(p.cell_size)) return p.cell_size;
+  return p.snap_voxel * std::exp2(std::round(std::log2(p.cell_size / p.snap_voxel)));
+}
+
+BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& asked, Progress& progress) {
   grid.validate("background mesh: volume");
-  if (!(p.cell_size > 0.0) || !std::isfinite(p.cell_size))
+  if (!(asked.cell_size > 0.0) || !std::isfinite(asked.cell_size))
     throw InputError("cell_size must be a positive number of mm");
+  BccParams p = asked;
+  p.cell_size = bccSnappedCell(asked);
+  std::string named; // cell_size as the user gave it, and the cells it became
+  {
+    std::ostringstream o;
+    o << "cell_size " << asked.cell_size << " mm";
+    if (p.cell_size != asked.cell_size) o << " (cells of " << p.cell_size << " mm: a power of two times the voxel)";
+    named = o.str();
+  }
   if (!(p.padding >= 0.0) || !std::isfinite(p.padding))
     throw InputError("padding must be >= 0 mm");
   progress.beginStage("lattice");
@@ -56,10 +70,12 @@ BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, 
   // points, vertex kinds); 40 assumed. Tets go as cell_size^-3.
   {
     std::ostringstream what;
-    what << "cell_size " << p.cell_size << " mm (" << nx << " x " << ny << " x " << nz << " cells, "
-         << std::fixed << std::setprecision(0) << tetsD << " tets)";
+    what << named << " (" << nx << " x " << ny << " x " << nz << " cells, " << std::fixed << std::setprecision(0) << tetsD
+         << " tets)";
     requireMemory(kBccBytesPerTet * tetsD, what.str(), [&](double avail) {
-      const double need = p.cell_size * std::cbrt(kBccBytesPerTet * tetsD / std::max(avail, 1.0)) * 1.02;
+      double need = p.cell_size * std::cbrt(kBccBytesPerTet * tetsD / std::max(avail, 1.0)) * 1.02;
+      // Snapped: the smallest cell_size whose power of two is >= need (the geometric midpoint below it).
+      if (p.snap_voxel > 0) need = p.snap_voxel * std::exp2(std::ceil(std::log2(need / p.snap_voxel)) - 0.5) * 1.001;
       std::ostringstream f;
       f << "use cell_size >= " << roundUpForAdvice(need);
       return f.str();
@@ -67,8 +83,7 @@ BackgroundMesh generateRegularBcc(const GridGeometry& grid, const BccParams& p, 
   }
   auto tooMany = [&] {
     std::ostringstream m;
-    m << "cell_size " << p.cell_size << " mm gives " << nx << " x " << ny << " x " << nz
-      << " cells, too many for one mesh; use a larger cell_size";
+    m << named << " gives " << nx << " x " << ny << " x " << nz << " cells, too many for one mesh; use a larger cell_size";
     return InputError(m.str());
   };
   if (tetsD > double((int64_t(1) << 31) - 1)) throw tooMany();

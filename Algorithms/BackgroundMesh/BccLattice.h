@@ -27,7 +27,14 @@ enum class LatticeVertexKind : uint8_t { Primal = 0, Dual = 1, FaceCentre = 2 };
 struct BccParams {
   double cell_size = 4.0; // mm, edge of a lattice cell (> 0)
   double padding = 0.0;   // mm added around the volume's box on every side (>= 0)
+  // > 0: the cells are the power of two times this voxel size nearest to cell_size on a log
+  // scale (bccSnappedCell), as the thin-layer refinement needs them (OctreeBcc.h); messages
+  // name both sizes, and advice gives a cell_size that snaps far enough.
+  double snap_voxel = 0.0;
 };
+
+// cell_size as the lattice builds it: snapped when params.snap_voxel > 0.
+double bccSnappedCell(const BccParams& params);
 
 // Peak bytes per background tet while a regular BCC lattice is built (README "Reliability").
 inline constexpr double kBccBytesPerTet = 40.0;

@@ -292,6 +292,18 @@ int levelFor(double rootLongest, double cell) {
   return l;
 }
 
+// With thin layers, the root cells are a power of two times the voxel (the nearest to `cell` on
+// a log scale): every level of the refinement then falls on the same sizes whatever cell was
+// asked for, so a coarser cell only removes levels in the bulk and never makes the refinement at
+// the layers finer (a 6 mm root on 1 mm voxels would otherwise refine to 0.75 mm, a 5.5 mm one
+// to 1.375 mm).
+double snappedRootSize(double cell, double voxel) {
+  BccParams p;
+  p.cell_size = cell;
+  p.snap_voxel = voxel;
+  return bccSnappedCell(p);
+}
+
 double thinCellSize(const OctreeBccParams& p, const EdgeTopology& topo) {
   if (!(p.thin_layer_cell_size >= 0.0) || !std::isfinite(p.thin_layer_cell_size))
     throw InputError("thin_layer_cell_size must be >= 0 mm (0 = the voxel size, within a factor sqrt 2)");
@@ -345,10 +357,14 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   Vec3 lo, len, h;
   int64_t n[3];
   double rootLongest = 0;
+  const bool snap = thin && !thin->nothingMisses() && p.snap_roots;
+  const double rootTarget = snap ? snappedRootSize(maxCell, thin->voxelSize()) : maxCell;
+  st.requestedRootSize = maxCell;
   for (int a = 0; a < 3; ++a) {
     lo[a] = -0.5 * grid.spacing[a] - p.padding;
     len[a] = double(grid.dims[a]) * grid.spacing[a] + 2.0 * p.padding;
-    const double cells = std::ceil(len[a] / maxCell - 1e-9);
+    // (Whole cells no larger than the target: every level then stays at or below its power of two.)
+    const double cells = std::ceil(len[a] / rootTarget - 1e-9);
     if (!(cells < double(int64_t(1) << 20))) {
       std::ostringstream m;
       m << "root cells of " << maxCell << " mm give " << cells << " cells along axis " << a
@@ -959,17 +975,21 @@ OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& 
   // The regular lattice's cells (BccLattice.cpp) as the roots.
   SizingOctree tree;
   double rootLongest = 0;
+  BccParams snapped = bcc; // the cells as the thin-layer levels need them (snappedRootSize)
+  if (!thin.nothingMisses() && p.snap_roots) snapped.snap_voxel = thin.voxelSize();
+  const double rootTarget = bccSnappedCell(snapped);
+  st.requestedRootSize = bcc.cell_size;
   for (int a = 0; a < 3; ++a) {
     tree.lo[a] = -0.5 * grid.spacing[a] - bcc.padding;
     tree.boxLength[a] = double(grid.dims[size_t(a)]) * grid.spacing[a] + 2.0 * bcc.padding;
-    tree.roots[size_t(a)] = std::max<int64_t>(1, std::llround(tree.boxLength[a] / bcc.cell_size));
+    tree.roots[size_t(a)] = std::max<int64_t>(1, std::llround(tree.boxLength[a] / rootTarget));
     tree.rootSize[a] = tree.boxLength[a] / double(tree.roots[size_t(a)]);
     rootLongest = std::max(rootLongest, tree.rootSize[a]);
   }
   const double thinCell = thinCellSize(p, thin);
   tree.thinLevel = levelFor(rootLongest, thinCell);
   if (tree.thinLevel == 0 || thin.nothingMisses()) { // cells already as fine as asked, or nothing
-    // to find (EdgeTopology::nothingMisses): the regular lattice
+    // to find (EdgeTopology::nothingMisses): the regular lattice, of the cells asked for
     result.background = generateRegularBcc(grid, bcc, progress);
     return result;
   }
@@ -985,7 +1005,7 @@ OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& 
   std::vector<uint64_t> all(tree.leafSet.begin(), tree.leafSet.end());
   st.thinLayerSplits = splitThinLayerLeaves(tree, grid, thin, progress, std::move(all), st);
   if (st.thinLayerSplits == 0) {
-    result.background = generateRegularBcc(grid, bcc, progress);
+    result.background = generateRegularBcc(grid, snapped, progress);
     return result;
   }
   tree.finish(st, &progress);

@@ -49,6 +49,9 @@ struct OctreeBccParams {
   // surroundings changed, and the whole tree is meshed once at the end (the same mesh). false:
   // mesh and test the whole tree every round (for tests that check that).
   bool partial_thin_rounds = true;
+  // Root cells of a power of two times the voxel with thin layers (below); false: as asked (for
+  // tests of cleaving at a given ratio of cells to voxels).
+  bool snap_roots = true;
 };
 
 struct OctreeBccStats {
@@ -69,6 +72,7 @@ struct OctreeBccStats {
   int thinLayerRounds = 0;
   int64_t thinLayerTetsLeft = 0;
   double thinLayerCellSize = 0.0;       // mm, longest edge of a leaf at the thin-layer level (0: off)
+  double requestedRootSize = 0.0;       // mm, the root cell asked for (cell_size, max_cell_size)
 };
 
 struct OctreeBccResult {
@@ -134,6 +138,12 @@ OctreeBccResult generateOctreeBcc(const GridGeometry& grid, const ScalarVolume& 
 // A regular BCC lattice (BccLattice.h: the same cells) whose cells are split, as an octree, where
 // an edge misses a material (above), down to params.thin_layer_cell_size. Without such an edge it
 // is generateRegularBcc's lattice itself. min/max_cell_size are not used.
+// Root cells with thin layers (both functions; not when thin.nothingMisses()): a power of two
+// times the voxel size (the largest spacing), the one nearest to cell_size (max_cell_size for the
+// octree) on a log scale, then rounded per axis to tile the box (n_a = round(L_a / that), and
+// for the octree n_a = ceil(L_a / that): no level above its power of two, as min_cell_size asks); so
+// every refinement level lies on the same sizes whatever size was asked for, and a coarser cell
+// never refines the layers further (cell_size 5 and 6 mm on 1 mm voxels give 4 and 8 mm cells).
 OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& bcc, const OctreeBccParams& params,
                                      const EdgeTopology& thin, Progress& progress, const MaterialSet* materials = nullptr);
 

@@ -4,6 +4,7 @@
 #include "Algorithms/Quality/LabelTopology.h"
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 
 namespace tetflow {
@@ -16,6 +17,14 @@ EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(label
   if (mode == Mode::Separating) {
     NullProgress np;
     coreless_ = corelessVoxels(labels, np);
+    // Components (26-connected, as the certificate counts them) when a label has several: a
+    // segment between two of them crosses what keeps them apart (the septum between the
+    // ventricles), and missing that merges them.
+    LabelImageTopology topo = analyzeLabelImage(labels, np);
+    std::map<int32_t, int> perLabel;
+    bool several = false;
+    for (const auto& c : topo.comps) several = several || ++perLabel[c.label] > 1;
+    if (several) comp_ = std::move(topo.comp);
   }
   // Labels in the image: those that touch another (in a box of voxels, every label does when
   // there are two or more), else one.
@@ -23,7 +32,7 @@ EdgeTopology::EdgeTopology(const LabelVolume& labels, Mode mode) : labels_(label
   for (const auto& [a, b] : contacts_) present.insert(present.end(), {a, b});
   std::sort(present.begin(), present.end());
   present.erase(std::unique(present.begin(), present.end()), present.end());
-  nothingMisses_ = mode == Mode::Separating && present.size() <= 2 && coreless_.empty();
+  nothingMisses_ = mode == Mode::Separating && present.size() <= 2 && coreless_.empty() && comp_.empty();
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) toIndex_[r][c] = g.direction[c][r] / g.spacing[r];
   voxelSize_ = std::max({g.spacing[0], g.spacing[1], g.spacing[2]});
@@ -126,11 +135,12 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
   if (nothingMisses_) return false;
   const Vec3 a = index(pa), b = index(pb);
   const auto& dims = labels_.grid.dims;
-  auto voxelAt = [&](const Vec3& u) {
+  auto voxelIndex = [&](const Vec3& u) {
     int64_t i[3];
     for (int x = 0; x < 3; ++x) i[x] = std::clamp<int64_t>(std::llround(u[x]), 0, dims[size_t(x)] - 1);
-    return labels_.at(i[0], i[1], i[2]);
+    return labels_.index(i[0], i[1], i[2]);
   };
+  auto voxelAt = [&](const Vec3& u) { return labels_.data[size_t(voxelIndex(u))]; };
   constexpr double eps = kTieWidth;
   // Voxel range touched (clamped: outside, the boundary voxels continue).
   int64_t lo[3], hi[3];
@@ -139,11 +149,14 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
     const double mx[3] = {std::max(a[0], b[0]), std::max(a[1], b[1]), std::max(a[2], b[2])};
     voxelBox(mn, mx, lo, hi);
   }
+  bool separated = false; // the ends carry labels kept apart by what lies between them
   if (mode_ == Mode::Separating) {
     const int32_t A = voxelAt(a), B = voxelAt(b);
-    if (A != B && (!touch(A, B) || !touchNear(A, B, lo, hi))) return true;
+    separated = A != B ? !touch(A, B) || !touchNear(A, B, lo, hi)
+                       : !comp_.empty() && comp_[size_t(voxelIndex(a))] != comp_[size_t(voxelIndex(b))];
+    if (separated && splitRatio_ <= 1.0) return true; // every miss counts: no need to measure it
     // Otherwise only a coreless layer (below) counts.
-    if (corelessBlock_.empty() || !anyBlock(corelessBlock_, lo, hi, 1)) return false;
+    if (!separated && (corelessBlock_.empty() || !anyBlock(corelessBlock_, lo, hi, 1))) return false;
   }
   // Blocks: all uniform means one label throughout (adjacent uniform blocks share their halos).
   if (!anyBlock(uniform_, lo, hi, 0)) return false;
@@ -217,6 +230,21 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
   // voxel holding each end is the one cleaving sees there, however close it is to another.
   const double minT = kMinStretch / std::max(norm(d), 1e-12);
   const int32_t endLabel[2] = {voxelAt(a), voxelAt(b)};
+  // A miss that counts: with splitRatio_ > 1, only when the segment is longer than splitRatio_
+  // times what lies between its ends' own stretches (the missed layer's extent along it).
+  auto worthSplitting = [&]() {
+    if (splitRatio_ <= 1.0) return true;
+    std::sort(touches, touches + n, [](const Touch& x, const Touch& y) { return x.t0 < y.t0; });
+    double fromA = 0.0; // the end of the stretch of a's label that starts at a
+    for (int s = 0; s < n; ++s)
+      if (touches[s].label == endLabel[0] && touches[s].t0 <= fromA + minT) fromA = std::max(fromA, touches[s].t1);
+    double toB = 1.0; // the start of the stretch of b's label that ends at b
+    for (int s = n - 1; s >= 0; --s)
+      if (touches[s].label == endLabel[1] && touches[s].t1 >= toB - minT) toB = std::min(toB, touches[s].t0);
+    const double extent = std::max(0.0, toB - fromA) * norm(pb - pa); // mm
+    return norm(pb - pa) > splitRatio_ * extent;
+  };
+  if (separated) return worthSplitting();
   if (mode_ == Mode::Separating &&
       std::none_of(touches, touches + n, [&](const Touch& x) {
         return x.coreless && x.label != endLabel[0] && x.label != endLabel[1];
@@ -244,8 +272,8 @@ bool EdgeTopology::missesMaterial(const Vec3& pa, const Vec3& pb) const {
     }
     if (counts(label, t0, t1)) ++stretches;
     if (stretches == 0) continue;
-    if (stretches > 1) return true; // it comes back after a stretch of something else
-    if (++nl == 3) return true;     // a third label
+    if (stretches > 1 || ++nl == 3) // it comes back after a stretch of something else, or a third label
+      return worthSplitting();
   }
   return false;
 }

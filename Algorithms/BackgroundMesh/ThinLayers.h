@@ -36,6 +36,8 @@ public:
   //               between two tissues that meet elsewhere) would be missing there and the two
   //               would touch. Decided by the ends' voxels and that box; for a long edge (a box of
   //               more than kNearVoxels voxels) by the whole image (labels that never touch).
+  //               Likewise where the ends lie in two components of one label (two ventricles,
+  //               whatever keeps them apart would be missing and they would merge).
   //               And every miss (as All) of a layer of a component without a core voxel (a
   //               voxel whose six neighbours carry its label): a one- or two-voxel sheet, rod or
   //               speck that would be lost whole, whatever labels it lies between.
@@ -44,14 +46,24 @@ public:
   // Keeps a reference to `labels`, which must outlive it.
   explicit EdgeTopology(const LabelVolume& labels, Mode mode = Mode::All);
   // a, b physical (mm). Outside the grid the boundary voxels continue (as the materials do).
+  // With a split ratio r > 1 (setSplitRatio), a miss counts only when the segment is longer than
+  // r times the missed layer's extent along it: the part of the segment between the stretch of
+  // the label at a that starts at a and the stretch of the label at b that ends at b (the layer
+  // of a separating miss, the B of A B A, the middle of A B C). Splitting the segment's cell into
+  // halves then stops once its edges are no longer than r x that extent, so a cell is refined
+  // as far as the layer it misses is thin, not down to the voxels wherever a layer is missed:
+  // halves of at most the extent sample the layer along the segment's line (r = 1), longer ones
+  // may leave it to the label repair. r <= 1 (the default, 1): every miss counts.
   bool missesMaterial(const Vec3& a, const Vec3& b) const;
+  void setSplitRatio(double r) { splitRatio_ = r; }
+  double splitRatio() const { return splitRatio_; }
   // Whether the voxels around the points (physical, mm; their bounding box in the grid) are known
   // to carry one label: then no segment between two of them misses a material (in either mode),
   // and a caller with many such segments (the edges of a cell or a tet) need not test them one by
   // one. (Not known, and false, when nothingMisses.)
   bool uniformOver(const Vec3* points, int n) const;
-  // Whether no segment can miss a material: Separating on an image of at most two labels and no
-  // component without a core (a segment between the two labels passes a face between them in
+  // Whether no segment can miss a material: Separating on an image of at most two labels, each
+  // in one piece, and no component without a core (a segment between the two labels passes a face between them in
   // the box it crosses, and nothing coreless is there to lose). A smooth organ in its background.
   bool nothingMisses() const { return nothingMisses_; }
   // Largest voxel spacing (mm).
@@ -62,6 +74,7 @@ private:
   static constexpr int kBlock = 4; // voxels per block edge
   const LabelVolume& labels_;
   Mode mode_;
+  double splitRatio_ = 1.0;
   std::vector<std::pair<int32_t, int32_t>> contacts_; // label pairs (a < b) on face-adjacent voxels, sorted
   static constexpr int64_t kNearVoxels = 4096;
   bool touch(int32_t a, int32_t b) const;
@@ -79,6 +92,8 @@ private:
   // Separating: per voxel, 1 in a component without a core voxel (empty when there is none); per
   // block (with its halo), 1 when it holds such a voxel.
   std::vector<uint8_t> coreless_, corelessBlock_;
+  // Separating: per voxel, its 26-connected component, when some label has several (else empty).
+  std::vector<int32_t> comp_;
   Vec3 index(const Vec3& p) const;
   bool nothingMisses_ = false;
 };

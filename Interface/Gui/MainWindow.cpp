@@ -330,7 +330,9 @@ bool MainWindow::meshVolume(const QString& volumePath, MeshBackground background
   std::vector<std::string> lines;
   std::unique_ptr<Network> net;
   try {
-    lines = chooseMeshSizes(o, readLabelVolume(o.labels).grid); // the voxel size (read again when run)
+    const LabelVolume v = readLabelVolume(o.labels); // the voxel size and the label outside (read again when run)
+    o.exterior = exteriorLabelOf(v);
+    lines = chooseMeshSizes(o, v.grid);
     net = std::make_unique<Network>(buildMeshLabelsNetwork(registry_, o));
   } catch (const std::exception& e) {
     log(tr("Cannot mesh %1: %2").arg(volumePath, qs(e.what())));

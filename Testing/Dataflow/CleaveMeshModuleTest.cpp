@@ -1,6 +1,7 @@
 // CleaveMesh and GenerateBackgroundMesh as modules: phantom -> background -> cleave -> quality.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "Dataflow/Executor.h"
@@ -88,8 +89,8 @@ TEST(CleaveMeshModule, OctreeBackgroundFromASizingField) {
   p.net.setParameterText("bg", "kind", "regular_bcc");
   ASSERT_TRUE(p.exec.execute(p.net).success);
   const auto& msgs = p.exec.state("bg")->messages;
-  ASSERT_EQ(msgs.size(), 1u);
-  EXPECT_NE(msgs[0].find("ignores the sizing field"), std::string::npos) << msgs[0];
+  EXPECT_TRUE(std::any_of(msgs.begin(), msgs.end(),
+                          [](const std::string& m) { return m.find("ignores the sizing field") != std::string::npos; }));
 }
 
 TEST(CleaveMeshModule, ParticleBackgroundFromASizingField) {
@@ -207,6 +208,7 @@ struct SpheresPipeline {
     net.setParameterText("r", "labels", "1; 2; 3; 4");
     net.addModule("GenerateBackgroundMesh", "bg");
     net.setParameterText("bg", "cell_size", "3");
+    net.setParameterText("bg", "refine_thin_layers", "none"); // the plain 3-voxel lattice (snapped, 4 voxels)
     net.addModule("CleaveMesh", "cl");
     net.setParameterText("cl", "improve", improveInCleave ? "true" : "false");
     net.setParameterText("cl", "interface_points", "linear");

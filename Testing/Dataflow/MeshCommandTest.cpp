@@ -38,14 +38,19 @@ std::string meshAndCheck(const tetflow::test::TempDir& tmp, const std::string& k
       ADD_FAILURE() << kind << " tet " << t << " is inverted or flat";
       break;
     }
-  // The certificate, against the voxels: every tissue within 5 % on the lattices (measured:
-  // CSF -1.5 % regular, -3.3 % octree, the rest within 1.1 %), nothing with a core lost. The
-  // particle background has no thin-layer refinement: there the one-voxel CSF loses 29 % and
-  // the skull gains 9 % (README "Mesh your own segmentation"); scalp and brain stay within 5 %.
+  // The certificate, against the voxels: every tissue within 5 % on the regular lattice
+  // (measured: CSF -3.5 %, skull +1.3 %, the rest within 0.2 %), nothing with a core lost. The
+  // octree (16 to 64 mm on these 4 mm voxels) keeps all but the CSF within 5 % and the CSF within
+  // 15 % (measured -14.2 %: a CSF one voxel thick everywhere, which thin_layer_ratio 2 leaves
+  // under cells of two voxels; -1.6 % with thin_layer_ratio 1; on 2 mm and 1 mm voxels it keeps
+  // every tissue within 0.4 %, README "Lean meshes"). The particle background has no thin-layer
+  // refinement: there the one-voxel CSF loses about 30 % and the skull gains about 9 % (README
+  // "Mesh your own segmentation"); scalp and brain stay within 5 %.
   const std::string json = readText(report);
   const std::vector<int> bounded = kind == "particles" ? std::vector<int>{1, 4, 5} : std::vector<int>{1, 2, 3, 4, 5};
   for (int label : bounded)
-    EXPECT_LT(std::abs(reportNumber(json, "cert_label_" + std::to_string(label) + "_volume_rel_error")), 0.05)
+    EXPECT_LT(std::abs(reportNumber(json, "cert_label_" + std::to_string(label) + "_volume_rel_error")),
+              kind == "octree" && label == 3 ? 0.15 : 0.05)
         << kind << " label " << label;
   EXPECT_EQ(reportNumber(json, "cert_components_lost"), 0.0) << kind;
   EXPECT_TRUE(std::isfinite(reportNumber(json, "cert_label_3_volume_rel_error"))) << kind;
@@ -96,7 +101,7 @@ TEST(MeshCommand, PrintsTheSizesItChoseAndSaveNetReRunsToTheSameMesh) {
   // The default sizes come from the voxels; --no-run writes the net alone.
   const Result d = cli("mesh " + head4() + " --adaptive --save-net " + tmp.file("d.srn") + " --no-run");
   ASSERT_EQ(d.code, 0) << d.out;
-  EXPECT_NE(d.out.find("smallest element size 8 mm (2 x the 4 mm voxels; --min-size to change)"), std::string::npos)
+  EXPECT_NE(d.out.find("smallest element size 16 mm (4 x the 4 mm voxels; --min-size to change)"), std::string::npos)
       << d.out;
   EXPECT_NE(d.out.find("largest element size 64 mm (16 x the 4 mm voxels; --max-size to change)"), std::string::npos)
       << d.out;
@@ -150,4 +155,49 @@ TEST(MeshCommand, BadOptionsAndInputsAreRefusedByName) {
   EXPECT_NE(big.out.find("use cell_size >= "), std::string::npos) << big.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.file("x.vtu")));
   EXPECT_TRUE(readText(h) == before); // the input is untouched
+}
+
+// `--max-tets N` (issue 50): the sizes grow until the mesh fits N, and the mesh does; a budget no
+// size can meet is refused naming the layer that costs it; the air outside is stripped unless
+// --keep-exterior.
+TEST(MeshCommand, MaxTetsKeepsTheMeshWithinItsBudgetOrNamesTheLayer) {
+  tetflow::test::TempDir tmp;
+  const std::string h = head4();
+  const Result free = cli("mesh " + h + " -o " + tmp.file("free.vtu") + " --report " + tmp.file("free.json"));
+  ASSERT_EQ(free.code, 0) << free.out;
+  EXPECT_NE(free.out.find("label 0 outside the body is stripped (--keep-exterior keeps it)"), std::string::npos)
+      << free.out;
+  const tetflow::TetMesh freeMesh = tetflow::readMesh(tmp.file("free.vtu"));
+  // GenerateBackgroundMesh's prediction of it: a little above, as a budget needs.
+  const double predicted = reportNumber(readText(tmp.file("free.json")), "predicted_tets");
+  EXPECT_GT(predicted, 0.95 * double(freeMesh.numTets()));
+  EXPECT_LT(predicted, 1.35 * double(freeMesh.numTets()));
+  const Result kept = cli("mesh " + h + " --keep-exterior -o " + tmp.file("kept.vtu"));
+  ASSERT_EQ(kept.code, 0) << kept.out;
+  EXPECT_GT(tetflow::readMesh(tmp.file("kept.vtu")).numTets(), freeMesh.numTets()); // the air around the head
+
+  // (On these 4 mm voxels most tets are the thin-layer refinement's, which no cell size shrinks:
+  // about 80 % of the mesh; a budget of 90 % of it is met by coarser cells.)
+  const int64_t budget = int64_t(double(freeMesh.numTets()) * 0.9);
+  const Result fit = cli("mesh " + h + " --max-tets " + std::to_string(budget) + " -o " + tmp.file("fit.vtu") +
+                         " --report " + tmp.file("fit.json"));
+  ASSERT_EQ(fit.code, 0) << fit.out;
+  EXPECT_NE(fit.out.find("at most " + std::to_string(budget) + " tets (--max-tets)"), std::string::npos) << fit.out;
+  const tetflow::TetMesh fitMesh = tetflow::readMesh(tmp.file("fit.vtu"));
+  EXPECT_LE(int64_t(fitMesh.numTets()), budget);
+  EXPECT_GT(int64_t(fitMesh.numTets()), budget / 2); // the finest sizes that fit, not the coarsest
+  EXPECT_GT(reportNumber(readText(tmp.file("fit.json")), "budget_scale"), 1.0);
+
+  const Result none = cli("mesh " + h + " --max-tets 300 -o " + tmp.file("none.vtu"));
+  EXPECT_EQ(none.code, 1) << none.out;
+  EXPECT_NE(none.out.find("max_tets 300 cannot be met"), std::string::npos) << none.out;
+  EXPECT_NE(none.out.find("raise max_tets to at least"), std::string::npos) << none.out;
+  // Coarse enough to fit, the lattice would lose a tissue: refused, naming it, never meshed that way.
+  EXPECT_NE(none.out.find("cannot be met without losing label "), std::string::npos) << none.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.file("none.vtu")));
+  for (const std::string bad : {"0", "-5", "1e6", "many"}) {
+    const Result r = cli("mesh " + h + " --max-tets " + bad);
+    EXPECT_EQ(r.code, 2) << bad << "\n" << r.out;
+    EXPECT_NE(r.out.find("--max-tets '" + bad + "' must be a whole number of tets"), std::string::npos) << r.out;
+  }
 }

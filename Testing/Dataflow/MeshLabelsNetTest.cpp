@@ -21,7 +21,8 @@ using tetflow::test::readText;
 TEST(MeshLabelsNet, TheShippedNetsAreWhatTetflowMeshBuildsForTheBundledHead) {
   ModuleRegistry reg;
   registerStandardModules(reg);
-  const GridGeometry grid = readLabelVolume(std::string(TETFLOW_TEST_DATA) + "/layered_head_4mm.nii.gz").grid;
+  const LabelVolume head = readLabelVolume(std::string(TETFLOW_TEST_DATA) + "/layered_head_4mm.nii.gz");
+  const GridGeometry grid = head.grid;
   for (const auto& [file, background, output] :
        {std::tuple{"mesh_labels.srn", MeshBackground::Regular, "layered_head.vtu"},
         std::tuple{"mesh_labels_adaptive.srn", MeshBackground::Octree, "layered_head_adaptive.vtu"}}) {
@@ -29,6 +30,8 @@ TEST(MeshLabelsNet, TheShippedNetsAreWhatTetflowMeshBuildsForTheBundledHead) {
     o.labels = "../Testing/Data/layered_head_4mm.nii.gz";
     o.output = output;
     o.background = background;
+    o.exterior = exteriorLabelOf(head); // 0: the air around the head
+    EXPECT_EQ(o.exterior, std::optional<int32_t>(0));
     chooseMeshSizes(o, grid);
     const std::string built = saveNetworkToString(buildMeshLabelsNetwork(reg, o));
     const std::string shipped = readText(std::string(TETFLOW_SOURCE_DIR) + "/Nets/" + file);
@@ -43,9 +46,15 @@ TEST(MeshLabelsNet, SizesScaleWithTheLongestVoxelSideAndGivenSizesStay) {
   g.spacing = {0.5, 0.5, 1.5};
   MeshLabelsOptions o;
   auto lines = chooseMeshSizes(o, g);
-  EXPECT_DOUBLE_EQ(o.cellSize, 3.0);
+  EXPECT_DOUBLE_EQ(o.cellSize, 6.0);
   ASSERT_EQ(lines.size(), 1u);
-  EXPECT_EQ(lines[0], "cell size 3 mm (2 x the 1.5 mm voxels; --cell-size to change)");
+  EXPECT_EQ(lines[0], "cell size 6 mm (4 x the 1.5 mm voxels; --cell-size to change)");
+  // The octree's smallest size is 4 x too (its thin layers are refined below it); the particles' 2 x.
+  o = {};
+  o.background = MeshBackground::Octree;
+  lines = chooseMeshSizes(o, g);
+  EXPECT_DOUBLE_EQ(o.minSize, 6.0);
+  EXPECT_DOUBLE_EQ(o.maxSize, 24.0);
   o = {};
   o.background = MeshBackground::Particles;
   o.maxSize = 10;

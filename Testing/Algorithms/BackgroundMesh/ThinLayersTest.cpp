@@ -72,6 +72,12 @@ TEST(ThinLayers, SegmentsAcrossASheetMissItAndOthersDoNot) {
   for (int k = 0; k < 20; ++k)
     for (int j = 0; j < 20; ++j) slab.at(9, j, k) = slab.at(11, j, k) = 1;
   EXPECT_TRUE(EdgeTopology(slab).missesMaterial({7.3, 5, 5}, {12.8, 5, 5}));
+  // Across the whole box the slab cuts label 0 in two: missing it would merge them, so it counts.
+  EXPECT_TRUE(EdgeTopology(slab, EdgeTopology::Mode::Separating).missesMaterial({7.3, 5, 5}, {12.8, 5, 5}));
+  // With a hole (y < 3) the two sides are one piece: nothing to keep apart.
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 9; i <= 11; ++i) slab.at(i, j, k) = 0;
   EXPECT_FALSE(EdgeTopology(slab, EdgeTopology::Mode::Separating).missesMaterial({7.3, 5, 5}, {12.8, 5, 5}));
   EXPECT_TRUE(EdgeTopology(v, EdgeTopology::Mode::Separating).missesMaterial({8.3, 5, 5}, {11.3, 5, 5}));
   EXPECT_FALSE(EdgeTopology(v, EdgeTopology::Mode::Separating).missesMaterial({8.3, 5, 5}, {9.3, 5, 5}));

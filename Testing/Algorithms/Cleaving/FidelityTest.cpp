@@ -337,7 +337,9 @@ TEST(Fidelity, AOneVoxelSheetKeepsItsVolumeOutOfTheCleaveAtEveryLatticeOffset) {
   double worst = 0.0;
   for (int o = 0; o < 10; ++o) {
     const double padding = 0.5 * o; // mm (1 mm voxels): a tenth of a 5 mm cell each
-    const OctreeBccResult bg = generateThinLayerBcc(v.grid, BccParams{5.0, padding}, OctreeBccParams{}, thin, np);
+    OctreeBccParams op;
+    op.snap_roots = false; // 5 mm cells, refined to 1.25 voxels (snapped, they would be 4 mm and 1 voxel)
+    const OctreeBccResult bg = generateThinLayerBcc(v.grid, BccParams{5.0, padding}, op, thin, np);
     const CleaveResult r = cleave(bg.background, mats, CleaveParams{}, np);
     // Away from the sheet's rim (which cells of 1.25 voxels round off): the tets whose centroids
     // lie over the middle 12 x 12 voxels.
