@@ -69,6 +69,9 @@ set(TETFLOW_RELEASE_ONLY_TESTS
   Cli.ASmallerDefaultNetIsDeterministicAcrossThreadCountsAndRuns
   MeshCommand.EachBackgroundMeshesTheBundledHeadAndNiftiAndNrrdGiveOneMesh
   MeshCommand.PrintsTheSizesItChoseAndSaveNetReRunsToTheSameMesh
+  # five `tetflow mesh` runs of the 4 mm head (28 s); the budget's fit and refusals run under the
+  # sanitizers in TetBudget.*
+  MeshCommand.MaxTetsKeepsTheMeshWithinItsBudgetOrNamesTheLayer
   Fidelity.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation
   Fidelity.CullingTheExteriorLeavesTheMeshAsItWas
   # surfaces of larger heads, and MNE's checks of them (a Python peer); the surface code runs
