@@ -59,19 +59,7 @@ public:
     p.interface_points = ip0 == "exact"    ? CleaveParams::InterfacePoints::Exact
                          : ip0 == "linear" ? CleaveParams::InterfacePoints::Linear
                                            : CleaveParams::InterfacePoints::Auto;
-    const std::string strip = ctx.getString("strip_exterior");
-    if (strip != "none" && !strip.empty()) {
-      size_t used = 0;
-      long v = 0;
-      try {
-        v = std::stol(strip, &used);
-      } catch (...) {
-        used = 0;
-      }
-      if (used != strip.size())
-        throw InputError("parameter 'strip_exterior' = '" + strip + "': use 'none' or a material label value");
-      p.strip_exterior = static_cast<int32_t>(v);
-    }
+    p.strip_exterior = labelOrNoneParam(ctx, "strip_exterior", "a material label value");
     const bool repairOn = ctx.getBool("repair_labels");
     CleavePipelineParams pp;
     pp.cleave = p;

@@ -88,17 +88,8 @@ public:
       if (!argmax && maxTets > 0) argmax.emplace(ctx.inputAs<MaterialsData>(0).value->dominantLabels());
       if (argmax) labels = &*argmax;
     }
-    std::optional<int32_t> exterior;
-    {
-      const std::string e = ctx.getString("max_tets_exterior");
-      if (e != "none") {
-        char* end = nullptr;
-        const long v = std::strtol(e.c_str(), &end, 10);
-        if (e.empty() || *end != '\0')
-          throw InputError("parameter 'max_tets_exterior' = '" + e + "': use 'none' or the label CleaveMesh's strip_exterior removes");
-        exterior = int32_t(v);
-      }
-    }
+    const std::optional<int32_t> exterior =
+        labelOrNoneParam(ctx, "max_tets_exterior", "the label CleaveMesh's strip_exterior removes");
     // Every size times `scale` (1 = as the parameters ask); the last build's report wins.
     std::optional<ScalarVolume> scaledSizing;
     const double thinRatio = ctx.getDouble("thin_layer_ratio");

@@ -28,6 +28,20 @@ void registerStandardModules(ModuleRegistry& r) {
   registerMeshCADSurface(r);
 }
 
+std::optional<int32_t> labelOrNoneParam(ExecutionContext& ctx, const std::string& name, const std::string& hint) {
+  const std::string text = ctx.getString(name);
+  if (text == "none" || text.empty()) return std::nullopt;
+  size_t used = 0;
+  long v = 0;
+  try {
+    v = std::stol(text, &used);
+  } catch (...) {
+    used = 0;
+  }
+  if (used != text.size()) throw InputError("parameter '" + name + "' = '" + text + "': use 'none' or " + hint);
+  return static_cast<int32_t>(v);
+}
+
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma) {
   if (data->type() == PortType::Materials)
     return static_cast<const MaterialsData&>(*data).value;

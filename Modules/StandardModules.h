@@ -1,4 +1,5 @@
 #pragma once
+#include <optional>
 // Registration of every TetFlow module. Dataflow never includes concrete modules: tools call this
 // once to fill a registry.
 #include "Algorithms/FEM/Conductivity.h"
@@ -35,6 +36,10 @@ void registerComputeMegLeadField(ModuleRegistry& r);
 void registerReadCADModel(ModuleRegistry& r);
 void registerMeshCADSurface(ModuleRegistry& r);
 [[noreturn]] void throwBuiltWithoutOpenCascade(const std::string& module);
+
+// A parameter that names a label value or 'none' (empty = none); InputError naming the parameter,
+// its value and `hint` (what to give instead) for anything else.
+std::optional<int32_t> labelOrNoneParam(ExecutionContext& ctx, const std::string& name, const std::string& hint);
 
 // "LabelVolume or Materials" inputs: a label volume becomes LabelMaterials (blendSigma voxels).
 std::shared_ptr<const MaterialSet> materialsFromInput(const DataPtr& data, double blendSigma);

@@ -292,18 +292,6 @@ int levelFor(double rootLongest, double cell) {
   return l;
 }
 
-// With thin layers, the root cells are a power of two times the voxel (the nearest to `cell` on
-// a log scale): every level of the refinement then falls on the same sizes whatever cell was
-// asked for, so a coarser cell only removes levels in the bulk and never makes the refinement at
-// the layers finer (a 6 mm root on 1 mm voxels would otherwise refine to 0.75 mm, a 5.5 mm one
-// to 1.375 mm).
-double snappedRootSize(double cell, double voxel) {
-  BccParams p;
-  p.cell_size = cell;
-  p.snap_voxel = voxel;
-  return bccSnappedCell(p);
-}
-
 double thinCellSize(const OctreeBccParams& p, const EdgeTopology& topo) {
   if (!(p.thin_layer_cell_size >= 0.0) || !std::isfinite(p.thin_layer_cell_size))
     throw InputError("thin_layer_cell_size must be >= 0 mm (0 = the voxel size, within a factor sqrt 2)");
@@ -357,9 +345,13 @@ SizingOctree buildSizingOctree(const GridGeometry& grid, const ScalarVolume& siz
   Vec3 lo, len, h;
   int64_t n[3];
   double rootLongest = 0;
-  const bool snap = thin && !thin->nothingMisses() && p.snap_roots;
-  const double rootTarget = snap ? snappedRootSize(maxCell, thin->voxelSize()) : maxCell;
-  st.requestedRootSize = maxCell;
+  // With thin layers, root cells of a power of two times the voxel (OctreeBcc.h): every level
+  // falls on the same sizes whatever maximum was asked for (a 6 mm root on 1 mm voxels would
+  // otherwise refine to 0.75 mm, a 5.5 mm one to 1.375 mm).
+  BccParams roots;
+  roots.cell_size = maxCell;
+  if (thin && !thin->nothingMisses() && p.snap_roots) roots.snap_voxel = thin->voxelSize();
+  const double rootTarget = bccSnappedCell(roots);
   for (int a = 0; a < 3; ++a) {
     lo[a] = -0.5 * grid.spacing[a] - p.padding;
     len[a] = double(grid.dims[a]) * grid.spacing[a] + 2.0 * p.padding;
@@ -975,10 +967,9 @@ OctreeBccResult generateThinLayerBcc(const GridGeometry& grid, const BccParams& 
   // The regular lattice's cells (BccLattice.cpp) as the roots.
   SizingOctree tree;
   double rootLongest = 0;
-  BccParams snapped = bcc; // the cells as the thin-layer levels need them (snappedRootSize)
+  BccParams snapped = bcc; // the cells as the thin-layer levels need them (bccSnappedCell)
   if (!thin.nothingMisses() && p.snap_roots) snapped.snap_voxel = thin.voxelSize();
   const double rootTarget = bccSnappedCell(snapped);
-  st.requestedRootSize = bcc.cell_size;
   for (int a = 0; a < 3; ++a) {
     tree.lo[a] = -0.5 * grid.spacing[a] - bcc.padding;
     tree.boxLength[a] = double(grid.dims[size_t(a)]) * grid.spacing[a] + 2.0 * bcc.padding;

@@ -72,7 +72,6 @@ struct OctreeBccStats {
   int thinLayerRounds = 0;
   int64_t thinLayerTetsLeft = 0;
   double thinLayerCellSize = 0.0;       // mm, longest edge of a leaf at the thin-layer level (0: off)
-  double requestedRootSize = 0.0;       // mm, the root cell asked for (cell_size, max_cell_size)
 };
 
 struct OctreeBccResult {

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "Algorithms/Core/Errors.h"
+#include "Algorithms/Quality/TetQuality.h"
 
 namespace tetflow {
 
@@ -22,13 +23,6 @@ std::string labelText(const LabelVolume& labels, int32_t l) {
   const auto it = labels.labelNames.find(l);
   return it != labels.labelNames.end() && !it->second.empty() ? it->second + " (label " + std::to_string(l) + ")"
                                                                 : "label " + std::to_string(l);
-}
-
-double longestEdge(const TetMesh& m, const std::array<int32_t, 4>& q) {
-  static constexpr int kEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  double l = 0.0;
-  for (const auto& e : kEdge) l = std::max(l, norm(m.points[size_t(q[e[0]])] - m.points[size_t(q[e[1]])]));
-  return l;
 }
 
 } // namespace
@@ -64,7 +58,8 @@ TetCountPrediction predictCleavedTets(const TetMesh& bg, const LabelVolume& labe
     const bool hasStrip = stripped && (a == *stripped || b == *stripped || c == *stripped || d == *stripped);
     if (one) (hasStrip ? strip : uniform) += 1;
     else (hasStrip ? cutStrip : cut) += 1;
-    edge[size_t(t)] = float(longestEdge(bg, q));
+    edge[size_t(t)] = float(longestEdge(bg.points[size_t(q[0])], bg.points[size_t(q[1])], bg.points[size_t(q[2])],
+                                        bg.points[size_t(q[3])]));
     shortest = std::min(shortest, double(edge[size_t(t)]));
   }
   cancel.rethrow();
