@@ -178,7 +178,11 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
   if (opt.only.empty()) {
     for (const auto& n : nodes) scope.insert(n.id);
   } else {
-    for (const auto& id : netIn.downstreamClosure(opt.only)) scope.insert(id);
+    if (opt.upstreamOnly) { // run or reused as their signatures and inputs decide
+      scope.insert(opt.only.begin(), opt.only.end());
+    } else {
+      for (const auto& id : netIn.downstreamClosure(opt.only)) scope.insert(id);
+    }
     std::deque<std::string> q(scope.begin(), scope.end());
     while (!q.empty()) {
       const std::string cur = q.front();
@@ -198,7 +202,8 @@ Executor::Summary Executor::execute(const Network& netIn, const Options& opt,
       }
     }
   }
-  const std::set<std::string> forced(opt.only.begin(), opt.only.end());
+  const std::set<std::string> forced =
+      opt.upstreamOnly ? std::set<std::string>{} : std::set<std::string>(opt.only.begin(), opt.only.end());
 
   // Dependency counts within scope.
   std::map<std::string, int> pending;

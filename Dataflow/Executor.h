@@ -74,6 +74,10 @@ public:
     // Execute these modules and everything downstream of them (plus any upstream module that has
     // no current result). Empty = the whole network.
     std::vector<std::string> only;
+    // With `only`: execute those modules and whatever upstream of them has no current result,
+    // nothing downstream; a requested module whose result is current is reused, not re-run (the
+    // node editor's "Execute up to here": a background's predicted tet count before cleaving).
+    bool upstreamOnly = false;
     bool force = false; // re-run even when nothing changed
     // Drop a module's outputs as soon as every module downstream of it in this run has finished
     // (the headless runner: a run's peak memory then holds only what is still to be consumed).

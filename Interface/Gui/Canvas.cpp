@@ -110,7 +110,16 @@ QString ModuleItem::statusText() const {
                                status_ == ModuleStatus::Cancelled)) {
     t += QString(" %1 s").arg(seconds_, 0, 'f', seconds_ < 10 ? 2 : 1);
   }
+  if (!note_.isEmpty() && status_ == ModuleStatus::Done) t += " · " + note_;
   return t;
+}
+
+void ModuleItem::setNote(const QString& shortText, const QString& tip) {
+  if (note_ == shortText && noteTip_ == tip) return;
+  note_ = shortText;
+  noteTip_ = tip;
+  setToolTip(noteTip_.isEmpty() ? baseTip_ : baseTip_ + "\n" + noteTip_);
+  update();
 }
 
 void ModuleItem::paint(QPainter* p, const QStyleOptionGraphicsItem*, QWidget*) {
@@ -160,6 +169,7 @@ void ModuleItem::setStatus(ModuleStatus s, double seconds) {
     live_.reset();
     setToolTip(baseTip_);
   }
+  if (s == ModuleStatus::Running || s == ModuleStatus::Waiting || s == ModuleStatus::Idle) setNote({});
   if (s == ModuleStatus::Running && status_ != ModuleStatus::Running) {
     clock_.start();
     progress_ = 0;
@@ -212,6 +222,7 @@ void ModuleItem::contextMenuEvent(QGraphicsSceneContextMenuEvent* e) {
   }
   QMenu menu;
   QAction* exec = menu.addAction(QObject::tr("Execute this and downstream"));
+  QAction* upTo = menu.addAction(QObject::tr("Execute up to here"));
   QAction* report = menu.addAction(QObject::tr("Show report"));
   QAction* log = menu.addAction(QObject::tr("Show log"));
   menu.addSeparator();
@@ -219,6 +230,7 @@ void ModuleItem::contextMenuEvent(QGraphicsSceneContextMenuEvent* e) {
   QAction* chosen = menu.exec(e->screenPos());
   const QString id = qs(id_);
   if (chosen == exec) emit sc->moduleContextAction(id, "execute");
+  else if (chosen == upTo) emit sc->moduleContextAction(id, "upto");
   else if (chosen == report) emit sc->moduleContextAction(id, "report");
   else if (chosen == log) emit sc->moduleContextAction(id, "log");
   else if (chosen == del) sc->deleteSelection();
@@ -440,6 +452,10 @@ void NetworkScene::setModuleStatus(const std::string& id, ModuleStatus s, double
     m->setStatus(s, seconds);
     if (s == ModuleStatus::Running && !ticker_.isActive()) ticker_.start();
   }
+}
+
+void NetworkScene::setModuleNote(const std::string& id, const QString& shortText, const QString& tip) {
+  if (ModuleItem* m = moduleItem(id)) m->setNote(shortText, tip);
 }
 
 void NetworkScene::setModuleProgress(const std::string& id, const QString& stage, double fraction) {

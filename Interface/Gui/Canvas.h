@@ -86,6 +86,10 @@ public:
   // its elapsed time and estimate when the run tells them (live).
   void tick(const std::optional<RunProgress::Entry>& live = std::nullopt);
   QString statusText() const;
+  // A short figure from the last run shown after the status ("~1.33 M tets": a background's
+  // predicted mesh size), with a longer tooltip line; empty clears it.
+  void setNote(const QString& shortText, const QString& tip = {});
+  const QString& note() const { return note_; }
 
   void addWire(WireItem* w) { wires_.push_back(w); }
   void removeWire(WireItem* w) { std::erase(wires_, w); }
@@ -107,6 +111,7 @@ private:
   QString baseTip_;
   double seconds_ = -1;
   QElapsedTimer clock_;
+  QString note_, noteTip_;
 };
 
 class WireItem : public QGraphicsPathItem {
@@ -155,6 +160,7 @@ public:
 
   // Execution feedback (GUI thread).
   void setModuleStatus(const std::string& id, ModuleStatus s, double seconds = -1);
+  void setModuleNote(const std::string& id, const QString& shortText, const QString& tip = {});
   void setModuleProgress(const std::string& id, const QString& stage, double fraction);
   // Where the ticker reads a running module's live progress (ExecutionController::liveProgress).
   void setLiveProgressSource(std::function<std::optional<RunProgress::Entry>(const std::string&)> f) {

@@ -18,7 +18,8 @@ ExecutionController::~ExecutionController() {
   }
 }
 
-bool ExecutionController::start(const Network& net, const std::vector<std::string>& only, int threads) {
+bool ExecutionController::start(const Network& net, const std::vector<std::string>& only, int threads,
+                                bool upstreamOnly) {
   if (running_) return false;
   if (worker_.joinable()) worker_.join();
   // Snapshot on the GUI thread: the executor copies this, never the live (editable) network.
@@ -30,6 +31,7 @@ bool ExecutionController::start(const Network& net, const std::vector<std::strin
   Executor::Options opt;
   opt.only = only;
   opt.threads = threads;
+  opt.upstreamOnly = upstreamOnly;
   board_ = std::make_shared<RunProgress>();
   worker_ = std::thread([this, opt, snap = snapshot_, board = board_] {
     ExecutionObserver obs;

@@ -30,7 +30,10 @@ public:
   ~ExecutionController() override;
 
   // false when a run is already in flight.
-  bool start(const Network& net, const std::vector<std::string>& only = {}, int threads = 0);
+  // upstreamOnly: `only` and whatever upstream of them is stale, nothing downstream
+  // (Executor::Options::upstreamOnly).
+  bool start(const Network& net, const std::vector<std::string>& only = {}, int threads = 0,
+             bool upstreamOnly = false);
   void cancel();
   bool isRunning() const { return running_; }
   // Blocks (processing queued events) until the run finished; false on timeout. Tests use it.

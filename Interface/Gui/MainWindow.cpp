@@ -12,6 +12,7 @@
 #include <QInputDialog>
 #include <QLabel>
 #include <QLineEdit>
+#include <QLocale>
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QPlainTextEdit>
@@ -57,6 +58,10 @@ MainWindow::MainWindow(const ModuleRegistry& registry, QWidget* parent)
   connect(scene_, &NetworkScene::message, this, &MainWindow::log);
   connect(scene_, &QGraphicsScene::selectionChanged, this, &MainWindow::onSelectionChanged);
   connect(scene_, &NetworkScene::parameterChanged, params_, &ParameterPanel::onParameterChanged);
+  connect(scene_, &NetworkScene::parameterChanged, this, [this](const QString& id, const QString&) {
+    // A prediction from values that changed no longer holds, here or below.
+    for (const auto& d : net_->downstreamClosure({ss(id)})) scene_->setModuleNote(d, {});
+  });
   connect(scene_, &NetworkScene::moduleRemoved, params_, &ParameterPanel::onModuleRemoved);
   connect(scene_, &NetworkScene::moduleContextAction, this, &MainWindow::onContextAction);
   connect(params_, &ParameterPanel::message, this, &MainWindow::log);
@@ -197,6 +202,10 @@ void MainWindow::createActions() {
   add(run, tr("Execute &Selected and Downstream"), QKeySequence(Qt::SHIFT | Qt::Key_F5), [this] {
     const auto ids = scene_->selectedModuleIds();
     if (!ids.empty()) executeFrom(qs(ids.front()));
+  });
+  add(run, tr("Execute &Up to Selected"), QKeySequence(Qt::CTRL | Qt::Key_F5), [this] {
+    const auto ids = scene_->selectedModuleIds();
+    if (!ids.empty()) executeUpTo(qs(ids.front()));
   });
   cancelAct_ = add(run, tr("&Cancel"), QKeySequence(Qt::Key_Escape), [this] { cancelExecution(); }, true);
   cancelAct_->setEnabled(false);
@@ -345,6 +354,7 @@ bool MainWindow::meshVolume(const QString& volumePath, MeshBackground background
   log(tr("Meshing network for %1: %2 background").arg(info.absoluteFilePath(), meshBackgroundName(background)));
   for (const auto& l : lines) log("  " + qs(l));
   log(tr("  the mesh goes to %1; Execute All runs it, File > Save keeps the network").arg(qs(o.output)));
+  log(tr("  \"Execute up to here\" on m2 (GenerateBackgroundMesh) shows the predicted tet count before cleaving"));
   return true;
 }
 
@@ -482,6 +492,18 @@ bool MainWindow::executeFrom(const QString& id) {
   return true;
 }
 
+bool MainWindow::executeUpTo(const QString& id) {
+  if (!net_->module(ss(id))) return false;
+  if (!exec_->start(*net_, {ss(id)}, 0, true)) {
+    log(tr("The network is already executing"));
+    return false;
+  }
+  executeAct_->setEnabled(false);
+  cancelAct_->setEnabled(true);
+  log(tr("Executing up to %1…").arg(id));
+  return true;
+}
+
 void MainWindow::cancelExecution() {
   if (exec_->isRunning()) {
     exec_->cancel();
@@ -510,6 +532,7 @@ void MainWindow::onExecutionFinished(bool success) {
     if (!st->reused)
       for (const auto& m : st->messages) log("    " + qs(m));
   }
+  showPredictions(sum.order);
   if (!exec_->lastError().isEmpty()) log(tr("Execution failed: %1").arg(exec_->lastError()));
   log(tr("%1: %2 ran, %3 reused, %4 failed, %5 skipped, %6 cancelled in %7 s")
           .arg(success ? tr("Done") : tr("Finished with problems"))
@@ -517,6 +540,28 @@ void MainWindow::onExecutionFinished(bool success) {
           .arg(sum.seconds, 0, 'f', 2));
   const auto sel = scene_->selectedModuleIds();
   if (sel.size() == 1) showModuleResults(sel.front());
+}
+
+void MainWindow::showPredictions(const std::vector<std::string>& ids) {
+  // GenerateBackgroundMesh's predicted_tets (Algorithms/BackgroundMesh/TetBudget.h): the size of
+  // the mesh CleaveMesh will make from this background, on the box before cleaving runs.
+  auto count = [](double n) {
+    return n >= 1e6 ? QString::number(n / 1e6, 'f', 2) + " M" : n >= 1e4 ? QString::number(n / 1e3, 'f', 0) + " k"
+                                                                         : QString::number(n, 'f', 0);
+  };
+  for (const auto& id : ids) {
+    const ModuleState* st = exec_->state(id);
+    if (!st || st->status != ModuleStatus::Done || !st->report.has("predicted_tets")) continue;
+    const double tets = st->report.number("predicted_tets");
+    QString tip = tr("predicted after cleaving: %1 tets").arg(QLocale().toString(qlonglong(tets)));
+    if (st->report.has("predicted_cut_tets"))
+      tip += tr(" (%1 of them in cut cells)").arg(QLocale().toString(qlonglong(st->report.number("predicted_cut_tets"))));
+    if (st->report.has("tets"))
+      tip += tr("; background %1 tets").arg(QLocale().toString(qlonglong(st->report.number("tets"))));
+    if (st->report.has("max_tets")) tip += tr("; max_tets %1").arg(QLocale().toString(qlonglong(st->report.number("max_tets"))));
+    scene_->setModuleNote(id, tr("≈%1 tets").arg(count(tets)), tip);
+    if (!st->reused) log(QString("    %1: %2").arg(qs(id), tip));
+  }
 }
 
 void MainWindow::selectModule(const QString& id) {
@@ -601,6 +646,7 @@ void MainWindow::showModuleLog(const std::string& id) {
 
 void MainWindow::onContextAction(const QString& id, const QString& action) {
   if (action == "execute") executeFrom(id);
+  else if (action == "upto") executeUpTo(id);
   else if (action == "report") {
     selectModule(id);
     reportDock_->raise();

@@ -60,6 +60,9 @@ public:
   void newNetwork();
   bool executeAll();
   bool executeFrom(const QString& moduleId); // this module and everything downstream
+  // This module and whatever upstream of it is stale, nothing downstream: a background's
+  // predicted tet count shows on its box before CleaveMesh runs.
+  bool executeUpTo(const QString& moduleId);
   void cancelExecution();
   void selectModule(const QString& id);
   // Unsaved-changes prompts and error message boxes (off for tests/screenshots).
@@ -96,6 +99,7 @@ private:
   void updateTitle();
   void showModuleResults(const std::string& id);
   void showModuleLog(const std::string& id);
+  void showPredictions(const std::vector<std::string>& ids); // predicted_tets on the boxes
   static std::map<int, QString> labelNames(const DataPtr& data);
 
   const ModuleRegistry& registry_;

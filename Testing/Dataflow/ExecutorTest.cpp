@@ -116,6 +116,54 @@ TEST_F(ExecFixture, ReRunsOnlyWhatChangedAndItsDownstream) {
   EXPECT_EQ(counters().count("m5"), 3);
 }
 
+TEST_F(ExecFixture, UpToHereRunsTheModuleAndItsStaleUpstreamOnly) {
+  Network net(reg);
+  // m1 -> m2 -> m3 -> m4, and m5 -> m3.
+  for (int i = 0; i < 5; ++i) net.addModule("Number");
+  net.setParameterText("m1", "value", "1");
+  net.setParameterText("m5", "value", "7");
+  net.connect("m1", 0, "m2", 0);
+  net.connect("m2", 0, "m3", 0);
+  net.connect("m3", 0, "m4", 0);
+  net.connect("m5", 0, "m3", 1);
+  Executor exec;
+  Executor::Options upTo;
+  upTo.only = {"m2"};
+  upTo.upstreamOnly = true;
+  auto sum = exec.execute(net, upTo);
+  EXPECT_TRUE(sum.success);
+  EXPECT_EQ(sum.ran, 2);
+  EXPECT_EQ(counters().count("m1"), 1);
+  EXPECT_EQ(counters().count("m2"), 1);
+  for (const char* id : {"m3", "m4", "m5"}) {
+    EXPECT_EQ(counters().count(id), 0) << id;
+    EXPECT_EQ(exec.state(id)->status, ModuleStatus::Idle) << id;
+  }
+  EXPECT_DOUBLE_EQ(value(exec, "m2"), 1.0);
+
+  // Unchanged: the requested module is reused, not forced.
+  sum = exec.execute(net, upTo);
+  EXPECT_EQ(sum.ran, 0);
+  EXPECT_EQ(sum.reused, 1);
+  EXPECT_EQ(counters().count("m2"), 1);
+
+  // An upstream change re-runs the changed module and the requested one, nothing below.
+  net.setParameterText("m1", "value", "2");
+  sum = exec.execute(net, upTo);
+  EXPECT_EQ(sum.ran, 2);
+  EXPECT_EQ(counters().count("m2"), 2);
+  EXPECT_DOUBLE_EQ(value(exec, "m2"), 2.0);
+  EXPECT_EQ(counters().count("m3"), 0);
+
+  // Up to m3: its other branch (m5) runs, m1 and m2 are reused, m4 stays idle.
+  upTo.only = {"m3"};
+  sum = exec.execute(net, upTo);
+  EXPECT_EQ(sum.ran, 2);
+  EXPECT_EQ(counters().count("m5"), 1);
+  EXPECT_DOUBLE_EQ(value(exec, "m3"), 9.0);
+  EXPECT_EQ(counters().count("m4"), 0);
+}
+
 TEST_F(ExecFixture, FailureSkipsDownstreamButNotIndependentBranches) {
   Network net(reg);
   for (int i = 0; i < 5; ++i) net.addModule("Number");

@@ -393,6 +393,49 @@ private slots:
     QCOMPARE(win_->execution()->lastSummary().ran, 2); // cm and q; ph and bg were current
   }
 
+  void upToHereShowsThePredictedTetCountBeforeCleaving() {
+    // Execute up to the background (context menu "Execute up to here"): CleaveMesh does not run,
+    // and the background's box shows the mesh size it predicts (its report's predicted_tets).
+    const auto ph = scene()->addModule("CreatePhantom", {0, 0});
+    net().setParameterText(ph, "kind", "sphere");
+    net().setParameterText(ph, "radius", "10");
+    net().setParameterText(ph, "voxel_size", "1");
+    const auto bg = scene()->addModule("GenerateBackgroundMesh", {0, 120});
+    net().setParameterText(bg, "cell_size", "3");
+    const auto cm = scene()->addModule("CleaveMesh", {0, 240});
+    QVERIFY(scene()->tryConnect(ph, 0, bg, 0).isEmpty());
+    QVERIFY(scene()->tryConnect(ph, 0, cm, 0).isEmpty());
+    QVERIFY(scene()->tryConnect(bg, 0, cm, 1).isEmpty());
+    emit scene()->moduleContextAction(QString::fromStdString(bg), "upto");
+    QVERIFY(win_->execution()->waitForFinished(60000));
+    QCOMPARE(win_->execution()->lastSummary().ran, 2);
+    QCOMPARE(scene()->moduleItem(bg)->status(), ModuleStatus::Done);
+    QCOMPARE(scene()->moduleItem(cm)->status(), ModuleStatus::Idle);
+    const ModuleState* st = win_->execution()->state(bg);
+    QVERIFY(st && st->report.has("predicted_tets"));
+    const double predicted = st->report.number("predicted_tets");
+    QVERIFY(predicted > 100);
+    const QString expect = predicted >= 1e4 ? QString::number(predicted / 1e3, 'f', 0) + " k" : QString::number(predicted, 'f', 0);
+    QCOMPARE(scene()->moduleItem(bg)->note(), QString("≈%1 tets").arg(expect));
+    QVERIFY(scene()->moduleItem(bg)->statusText().endsWith(QString("≈%1 tets").arg(expect)));
+    QVERIFY(scene()->moduleItem(bg)->toolTip().contains("predicted after cleaving"));
+    QVERIFY(win_->logView()->toPlainText().contains("predicted after cleaving"));
+
+    // Then the whole network: the background is reused, CleaveMesh makes about that many tets.
+    QVERIFY(win_->executeAll());
+    QVERIFY(win_->execution()->waitForFinished(60000));
+    QCOMPARE(win_->execution()->lastSummary().ran, 1);
+    const double tets = win_->execution()->state(cm)->report.number("tets");
+    QVERIFY2(tets > 0.7 * predicted && tets < 1.4 * predicted,
+             qPrintable(QString("predicted %1, cleaved %2").arg(predicted).arg(tets)));
+    QVERIFY(!scene()->moduleItem(bg)->note().isEmpty()); // reused: the prediction still holds
+
+    // A changed value upstream: the prediction is gone until the background runs again.
+    net().setParameterText(ph, "radius", "9");
+    QVERIFY(scene()->moduleItem(bg)->note().isEmpty());
+    QVERIFY(scene()->moduleItem(cm)->note().isEmpty());
+  }
+
   void runningModuleShowsItsStageAndElapsedTime() {
     // The default net's head phantom -> lattice -> cleave: CleaveMesh runs for seconds, through
     // named stages. While it runs its box says how long it has run and which stage it is in.
