@@ -1,5 +1,5 @@
 #pragma once
-// Live progress of one run, as the headless runner shows it (README "Headless runner", issue 29):
+// Live progress of one run, as the headless runner shows it (docs/headless.md, issue 29):
 // which modules are running, their stage, the stage's fraction, how long they have run and, where
 // the stage reports fractions, an estimate of what is left of it. Fed by an ExecutionObserver
 // (the events are already throttled by the executor); read by the terminal's live lines and by
@@ -65,7 +65,7 @@ std::string liveProgressLine(const RunProgress::Entry& e, size_t width = 0);
 std::string liveStageText(const RunProgress::Entry& e);
 
 // `--progress jsonl`: one JSON object per line for each event of a run, flushed as it is
-// written (README "Headless runner" lists the fields). Thread-safe.
+// written (docs/headless.md lists the fields). Thread-safe.
 class JsonlProgressWriter {
 public:
   JsonlProgressWriter(std::FILE* out, const RunProgress& board) : out_(out), board_(board) {}

@@ -1,5 +1,5 @@
 #pragma once
-// Transparent huge pages for the large arrays of a run (README "Performance").
+// Transparent huge pages for the large arrays of a run (docs/benchmarks.md).
 //
 // Meshing touches hundreds of megabytes of fresh memory per stage, and on kernels whose
 // transparent-huge-page mode is `madvise` (Debian's default) every 4 KiB page of it is a separate

@@ -1,5 +1,5 @@
 #pragma once
-// The headless runner's live lines on a terminal (README "Headless runner", issue 29): one line
+// The headless runner's live lines on a terminal (docs/headless.md, issue 29): one line
 // per running module (once it has run a quarter of a second) below everything printed so far, redrawn in place five times a second by a
 // thread of its own; lines printed through above() appear above them, so a module's summary line
 // replaces its live line when it ends. Only for a terminal that moves its cursor (isatty, TERM not

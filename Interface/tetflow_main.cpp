@@ -1,4 +1,4 @@
-// tetflow: the headless runner (no Qt). See README "Headless runner" and DESIGN §5.
+// tetflow: the headless runner (no Qt). See docs/headless.md and DESIGN §5.
 //
 //   tetflow run NET.srn [--set m3.param=value]... [--report out.json] [--threads N] [--max-memory SIZE] [--quiet]
 //                       [--progress auto|none|jsonl] [--progress-file FILE]

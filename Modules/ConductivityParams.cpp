@@ -20,7 +20,7 @@ std::vector<ParamSpec> conductivityParamSpecs() {
                                "labels not listed in conductivities and without a conductivity from "
                                "their label table take the literature value of their tissue name "
                                "(SimNIBS's table: white/grey matter, CSF, bone, scalp, eyes, blood, "
-                               "muscle, air; README)");
+                               "muscle, air; docs/file-formats.md, Tissues by name)");
   return {cond, def, byName};
 }
 

@@ -1,4 +1,4 @@
-# Test tiers (docs: README "Tests: three tiers"). Every CTest test carries exactly one of
+# Test tiers (docs/installing.md "Tests: three tiers"). Every CTest test carries exactly one of
 #   unit         one algorithm or one piece of the engine on small cases: exact answers,
 #                invariants, error messages; seconds each;
 #   integration  a net, the command line, the node editor or a whole pipeline end to end on small
@@ -36,6 +36,8 @@ set(TETFLOW_STUDY_TESTS
 set(TETFLOW_INTEGRATION_TESTS
   # the shipped nets (Nets.NAME), the headless runner, `tetflow mesh`, the node editor
   Nets.* Cli.* CliProgress.* MeshCommand.* Gui.*
+  # the examples of the README and docs/, run as a user would copy them
+  DocumentationExamples.*
   # modules run by the executor in nets of their own
   *Module.* EvaluateQualityFixture.* CadModulesFixture.* EegForward.* MegModules.*
   TissueNamesPipeline.* GmshMeshPipeline.*
@@ -72,6 +74,9 @@ set(TETFLOW_RELEASE_ONLY_TESTS
   # five `tetflow mesh` runs of the 4 mm head (28 s); the budget's fit and refusals run under the
   # sanitizers in TetBudget.*
   MeshCommand.MaxTetsKeepsTheMeshWithinItsBudgetOrNamesTheLayer
+  # the documentation's commands (`tetflow mesh`, `run`, `certify` on the bundled inputs); the
+  # same runner and modules run under the sanitizers in Cli.*, Nets.default and Nets.spheres
+  DocumentationExamples.*
   Fidelity.TheAdaptiveDefaultsKeepEveryComponentOfAFiveLabelSegmentation
   Fidelity.CullingTheExteriorLeavesTheMeshAsItWas
   # surfaces of larger heads, and MNE's checks of them (a Python peer); the surface code runs

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzzing (README "Reliability"): installs clang's libFuzzer and sanitizer runtimes when missing,
+# Fuzzing (docs/reliability.md): installs clang's libFuzzer and sanitizer runtimes when missing,
 # builds the fuzz targets of Testing/Fuzz with -fsanitize=fuzzer,address,undefined in build-fuzz,
 # and runs each for SECONDS (default 30) as the CTest tests labelled `fuzz`. Findings are written
 # to build-fuzz/fuzz-findings/NAME/ (crash-*, leak-*, timeout-*, oom-*); new coverage to

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Screenshots of tetflow-gui for the README, taken by the application itself under Xvfb:
+# Screenshots of tetflow-gui for the manual (docs/), taken by the application itself under Xvfb:
 # it opens a net, executes it, selects a module, sets up the 3D view and grabs its own window.
 #
 #   scripts/gui-screenshot.sh [BUILD_DIR]      (default: build) -> docs/tetflow-gui-*.png

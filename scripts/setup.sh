@@ -95,7 +95,7 @@ case "${1:-}" in
     export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
     (cd "$BUILD_DIR" && ctest --output-on-failure -j "$JOBS" -L "$tiers" "$@")
     phase "Release suite"
-    # On CI (CI set) or when asked, again under ASan + UBSan (README "Sanitizers"): only the
+    # On CI (CI set) or when asked, again under ASan + UBSan (docs/reliability.md "Sanitizers"): only the
     # programs the tests run (no GUI, benchmarks or tools they do not need), then the unit tests
     # and the integration tests labelled memory (Testing/Tiers.cmake). Without PETSc: OpenMPI and
     # PETSc are not instrumented and keep their allocations until exit, so the PETSc tests run in

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# ThreadSanitizer suite (README "Reliability"): installs clang and LLVM's OpenMP when missing,
+# ThreadSanitizer suite (docs/reliability.md): installs clang and LLVM's OpenMP when missing,
 # builds TetFlow with -fsanitize=thread in build-tsan (clang 14, LLVM's libomp: GCC's libgomp is
 # not instrumented, so every OpenMP barrier would look like a race), and runs the suite with
 # LLVM's Archer tool so that OpenMP's barriers, reductions and atomics are seen. The GUI and the

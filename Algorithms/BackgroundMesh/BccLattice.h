@@ -36,7 +36,7 @@ struct BccParams {
 // cell_size as the lattice builds it: snapped when params.snap_voxel > 0.
 double bccSnappedCell(const BccParams& params);
 
-// Peak bytes per background tet while a regular BCC lattice is built (README "Reliability").
+// Peak bytes per background tet while a regular BCC lattice is built (docs/reliability.md).
 inline constexpr double kBccBytesPerTet = 40.0;
 
 struct BackgroundMesh {

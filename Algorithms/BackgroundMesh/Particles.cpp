@@ -21,7 +21,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int64_t kMaxParticles = int64_t(1) << 28;
-// Peak bytes per particle of the whole kind (README "Reliability"; aims high).
+// Peak bytes per particle of the whole kind (docs/reliability.md; aims high).
 constexpr double kParticleBytes = 4000.0;
 
 std::string num(double x) {

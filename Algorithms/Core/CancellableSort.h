@@ -1,6 +1,6 @@
 #pragma once
 // Sorting large arrays of integer keys on all OpenMP threads, in pieces that each take a small
-// fraction of a second, with a cancellation check between pieces (README "Reliability": a
+// fraction of a second, with a cancellation check between pieces (docs/reliability.md: a
 // cancelled run stops within a second; one uninterruptible sort of 22 M keys took a whole one).
 //
 // A sample sort: splitters drawn from evenly spaced keys cut the key range into buckets of

@@ -1,5 +1,5 @@
 #pragma once
-// Memory checked before it is spent (README "Reliability"). A stage whose memory grows with a
+// Memory checked before it is spent (docs/reliability.md). A stage whose memory grows with a
 // parameter estimates its peak from sizes it knows before allocating (lattice cells, background
 // tets, samples, mesh tets) and calls requireMemory(). The budget is what this process may still
 // take: the machine's available memory (MemAvailable, and a cgroup's memory.max less its usage

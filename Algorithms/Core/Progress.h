@@ -56,7 +56,7 @@ protected:
   virtual void onStageEnd(const std::string& /*name*/, double /*seconds*/) {}
 
 private:
-  // Diagnostic for the cancellation promise (README "Reliability"): with the environment variable
+  // Diagnostic for the cancellation promise (docs/reliability.md): with the environment variable
   // TETFLOW_CANCEL_GAPS set, every stage prints to stderr the longest wall-clock stretch in which
   // no thread checked for cancellation (from the stage's start to its end), and the two checks
   // (source lines) around it. That stretch bounds how long a Ctrl-C waits in the stage. Off by

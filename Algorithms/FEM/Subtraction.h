@@ -26,7 +26,7 @@
 // Compared with partial integration and Venant (SourceModels.h), nothing of the singularity is
 // left to the mesh: the error no longer depends on where the dipole sits among the vertices, and
 // it stays small up to a few elements from a conductivity jump. Closer than that (eccentricity
-// 0.95 on the four-shell sphere at 3 mm, README) the correction's forcing in the nearby layer is
+// 0.95 on the four-shell sphere at 3 mm, docs/eeg-meg-tdcs.md) the correction's forcing in the nearby layer is
 // too steep for P1 elements and Venant does better. It costs a pass over the tets of the other
 // layers per dipole.
 #include <Eigen/Core>

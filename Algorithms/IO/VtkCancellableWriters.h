@@ -1,6 +1,6 @@
 #pragma once
 // VTK's legacy unstructured-grid writer, made to stop within a fraction of a second when the
-// running module is cancelled (README "Reliability", cancellation). VTK's writers have no
+// running module is cancelled (docs/reliability.md, cancellation). VTK's writers have no
 // cancellation of their own, but the legacy writer checks its stream after every array. This
 // subclass makes the output fail once currentProgress() (Core/Progress.h) reports a cancellation;
 // the caller then sees a failed Write() and checks the progress to throw Cancelled instead of

@@ -3,7 +3,7 @@
 // mode with UInt64 headers and zlib (level 1, 32 KiB blocks), written without VTK. VTK's writer
 // compresses on one thread and first copies the connectivity into its own arrays; this one
 // compresses blocks in parallel straight from the mesh's memory, a few MiB at a time, so the
-// write is faster and needs no copy of the mesh (README "Supported file formats").
+// write is faster and needs no copy of the mesh (docs/file-formats.md).
 //
 // Arrays, in file order: PointData (every point field), CellData ("material" Int32, then every
 // cell field), Points (Float64 x3), Cells (connectivity and offsets Int32, or Int64 once 4 * tets

@@ -2,7 +2,7 @@
 // The mesh certificate: does a labelled tetrahedral mesh keep what its segmentation has?
 //
 // certifyMesh() compares a TetMesh (per-tet material label = label value) with the LabelVolume it
-// was made from, label by label. Every figure is defined here; the README repeats the rules.
+// was made from, label by label. Every figure is defined here; docs/certificate.md repeats the rules.
 //
 // Volumes. Voxel volume of label L = voxel count x voxel volume; mesh volume = sum of the volumes
 // of the tets labelled L. Absolute error = mesh - voxels [mm^3], relative = absolute / voxels.
@@ -171,7 +171,7 @@ std::vector<std::string> certificateFailures(const CertificateResult& r, const C
 // "(x, y, z) mm, box [x0..x1, y0..y1, z0..z1]" with one decimal.
 std::string describePlace(const Place& p);
 
-// Fills `report` with keys prefixed "cert_" (README "Mesh certificate" lists them): the rule,
+// Fills `report` with keys prefixed "cert_" (docs/certificate.md lists them): the rule,
 // totals, per label figures (cert_label_L_*), every issue as one text line (cert_issue_N,
 // cert_spurious_contact_N, cert_missing_contact_N) up to `maxListed` of each.
 void writeCertificateReport(const CertificateResult& r, Report& report, size_t maxListed = 50);

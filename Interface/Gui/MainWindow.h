@@ -69,7 +69,7 @@ public:
   void setInteractive(bool on) { interactive_ = on; }
   void log(const QString& text);
   void raiseReport(); // bring the Report tab to the front
-  // Memory budget of the modules and the 3D view (README "Reliability"): "8G", "512 MB", ...;
+  // Memory budget of the modules and the 3D view (docs/reliability.md): "8G", "512 MB", ...;
   // empty = the machine's available memory. Kept in the settings when `remember` is set. Returns
   // false with the reason in *error for a size that cannot be read.
   bool setMemoryLimit(const QString& size, QString* error = nullptr, bool remember = true);

@@ -235,7 +235,7 @@ void MeshView::showData(const DataPtr& data, const std::map<int, QString>& label
     return; // same object: keep camera, clip and toggles
   }
   if (const TetMesh* m = meshOf(data)) {
-    // Memory before it is spent (README "Reliability"): face adjacency, centroids, the sort's
+    // Memory before it is spent (docs/reliability.md): face adjacency, centroids, the sort's
     // keys and VTK's copy of the points come to about 110 bytes per tet (measured on the head
     // phantom); 128 is asked for. Over budget, the view says so instead of building.
     try {

@@ -5,7 +5,7 @@
 //
 // --screenshot executes (implies --execute), waits for the run, selects --select (if given),
 // renders, saves a picture of the whole window and exits (status 0 when the file was written
-// and every module succeeded). The README's screenshot is made this way (scripts/gui-screenshot.sh).
+// and every module succeeded). The manual's screenshots are made this way (scripts/gui-screenshot.sh).
 #include <QApplication>
 #include <QCommandLineParser>
 #include <QDir>

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Cancellation latency (README "Reliability"): runs Nets/default.srn with a 2 mm lattice (about 13 s,
+# Cancellation latency (docs/reliability.md): runs Nets/default.srn with a 2 mm lattice (about 13 s,
 # 5.5 M tets, every stage long enough to be hit; the volume bound is off so that WriteMesh runs
 # too: at 2 mm the CSF is 6 % thin), sends SIGINT at a series of moments, and records how long the
 # process took to exit after the signal, which module was running, and the exit code (130 wanted).
@@ -17,7 +17,7 @@ trap 'rm -rf "$out"' EXIT
 results="$here/Testing/Benchmarks/results/cancel.txt"
 now() { date +%s.%N; }
 {
-  echo "# Cancellation latency: SIGINT into 'tetflow run Nets/default.srn --set m2.cell_size=2 --set m4.max_volume_error=0'"
+  echo "# cancel_latency.sh: SIGINT into 'tetflow run Nets/default.srn --set m2.cell_size=2 --set m4.max_volume_error=0'"
   echo "# $(date -u +%Y-%m-%d) on $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'))"
   echo "# signal_at_s  exit_after_s  exit_code  running_module"
 } > "$results.tmp"

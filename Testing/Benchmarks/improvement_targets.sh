@@ -1,5 +1,5 @@
 #!/bin/bash
-# Mesh improvement on the inputs the quality issue names (README "Mesh improvement"): the
+# Mesh improvement on the inputs the quality issue names (docs/mesh-improvement.md): the
 # default net, the head on regular lattices of 5/3/2 mm, the spheres at 3..0.5 voxels and the
 # adaptive head at min_size 4/2/1.5, each line: tets before/after, angles before -> after, tets
 # left outside [10, 160], operations, volume change, stage time of CleaveMesh time.

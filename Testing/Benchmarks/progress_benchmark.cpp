@@ -1,4 +1,4 @@
-// What live progress costs (README "Headless runner", issue 29). Runs a net in this process as
+// What live progress costs (docs/headless.md, issue 29). Runs a net in this process as
 // `tetflow run` does, again and again, in two ways, interleaved:
 //   none  no observer of progress: what `tetflow run` does with --progress none in a pipe, and
 //         what every run did before there was live progress

@@ -1,5 +1,5 @@
 #!/bin/bash
-# Solver scaling table (issue "the simulation at the speed of the mesh", README "Solvers: which
+# Solver scaling table (issue "the simulation at the speed of the mesh", docs/fem.md "Solvers: which
 # one and when"): one family of meshes, the 1 mm layered head of layered_head.cpp meshed by
 # Nets/mesh_labels.srn's regular lattice at cell sizes 6 to 2 mm without thin-layer refinement
 # (refine_thin_layers none: the unknowns then follow the cell size, 0.1 M to 1.9 M), and per mesh,
