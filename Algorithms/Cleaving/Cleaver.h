@@ -71,7 +71,7 @@ struct CleaveParams {
   // Auto = Exact on BCC lattices, Linear on unstructured backgrounds: a one-voxel layer keeps its
   // thickness on lattices fine enough to see it, while on particle backgrounds (coarser than the
   // layers they cross, per-vertex alphas) exact points left twice the tets below 10 degrees for the
-  // improvement (46 k against 9.5 k on the head, docs/certificate.md).
+  // improvement (46 k against 9.5 k on the head, docs/meshing.md).
   enum class InterfacePoints : uint8_t { Auto = 0, Exact = 1, Linear = 2 };
   InterfacePoints interface_points = InterfacePoints::Auto;
   double interface_tolerance = 0.01; // mm

@@ -10,11 +10,13 @@
 # sphere_validation_adaptive.txt, labelled by background, each group followed by its whole-run
 # time and peak memory, and a summary per background (tets, mean RDM and mean |lnMAG| over the
 # dipoles at eccentricity <= 0.77, i.e. z <= 60 mm, and the ratios to the regular lattice's).
-# BACKGROUNDS (default "regular octree particles") chooses the groups. Needs build/Interface/tetflow, python3.
+# BACKGROUNDS (default "regular octree particles octree8 particles8") chooses the groups; the
+# last two cap the largest size at 8 mm (--max-size 8): the elements around a dipole decide most
+# of its error. Needs build/Interface/tetflow, python3.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 OUT=${1:-$ROOT/Testing/Benchmarks/results/sphere_backgrounds.txt}
-BACKGROUNDS=${BACKGROUNDS:-regular octree particles}
+BACKGROUNDS=${BACKGROUNDS:-regular octree particles octree8 particles8}
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 sets_of() {
@@ -22,7 +24,9 @@ sets_of() {
     regular) echo "m2.kind=regular_bcc m2.cell_size=4" ;;
     octree) echo "m2.kind=octree_bcc m6.min_size=4 m6.max_size=16" ;;
     particles) echo "m2.kind=particles m6.min_size=2 m6.max_size=16" ;;
-    *) echo "unknown background $1 (regular, octree, particles)" >&2; exit 2 ;;
+    octree8) echo "m2.kind=octree_bcc m6.min_size=4 m6.max_size=8" ;;
+    particles8) echo "m2.kind=particles m6.min_size=2 m6.max_size=8" ;;
+    *) echo "unknown background $1 (regular, octree, particles, octree8, particles8)" >&2; exit 2 ;;
   esac
 }
 {
@@ -33,7 +37,7 @@ sets_of() {
 } > "$WORK/out.txt"
 for b in $BACKGROUNDS; do
   VOXELS=1 HOMOGENEOUS=0 SETS="$(sets_of "$b")" bash "$ROOT/Testing/Benchmarks/sphere_validation_adaptive.sh" "$WORK/$b.txt" >/dev/null
-  grep -v '^# \(sphere_validation\|at commit\|columns\)' "$WORK/$b.txt" | sed "s/^adaptive /$(printf '%-9s' "$b")/" >> "$WORK/out.txt"
+  grep -v '^# \(sphere_validation\|at commit\|columns\)' "$WORK/$b.txt" | sed -e "s/^adaptive /$(printf '%-9s' "$b")/" -e "s/^# adaptive,/# $b,/" >> "$WORK/out.txt"
 done
 python3 - "$WORK/out.txt" > "$WORK/summary.txt" <<'EOF'
 import sys
