@@ -470,37 +470,25 @@ void MainWindow::closeEvent(QCloseEvent* e) {
 }
 
 bool MainWindow::executeAll() {
-  if (!exec_->start(*net_)) {
-    log(tr("The network is already executing"));
-    return false;
-  }
-  executeAct_->setEnabled(false);
-  cancelAct_->setEnabled(true);
-  log(tr("Executing %1 modules…").arg(net_->modules().size()));
-  return true;
+  return startExecution({}, false, tr("Executing %1 modules…").arg(net_->modules().size()));
 }
 
 bool MainWindow::executeFrom(const QString& id) {
-  if (!net_->module(ss(id))) return false;
-  if (!exec_->start(*net_, {ss(id)})) {
-    log(tr("The network is already executing"));
-    return false;
-  }
-  executeAct_->setEnabled(false);
-  cancelAct_->setEnabled(true);
-  log(tr("Executing %1 and downstream…").arg(id));
-  return true;
+  return net_->module(ss(id)) && startExecution({ss(id)}, false, tr("Executing %1 and downstream…").arg(id));
 }
 
 bool MainWindow::executeUpTo(const QString& id) {
-  if (!net_->module(ss(id))) return false;
-  if (!exec_->start(*net_, {ss(id)}, 0, true)) {
+  return net_->module(ss(id)) && startExecution({ss(id)}, true, tr("Executing up to %1…").arg(id));
+}
+
+bool MainWindow::startExecution(const std::vector<std::string>& only, bool upstreamOnly, const QString& message) {
+  if (!exec_->start(*net_, only, 0, upstreamOnly)) {
     log(tr("The network is already executing"));
     return false;
   }
   executeAct_->setEnabled(false);
   cancelAct_->setEnabled(true);
-  log(tr("Executing up to %1…").arg(id));
+  log(message);
   return true;
 }
 

@@ -100,6 +100,8 @@ private:
   void showModuleResults(const std::string& id);
   void showModuleLog(const std::string& id);
   void showPredictions(const std::vector<std::string>& ids); // predicted_tets on the boxes
+  // Starts a run (ExecutionController::start) and sets the actions; false, logged, while one runs.
+  bool startExecution(const std::vector<std::string>& only, bool upstreamOnly, const QString& message);
   static std::map<int, QString> labelNames(const DataPtr& data);
 
   const ModuleRegistry& registry_;

@@ -27,15 +27,8 @@ struct DocExample {
   std::vector<std::string> expected;
 };
 
-std::vector<std::string> exampleFileLines(const fs::path& p) {
-  std::ifstream in(p);
-  std::vector<std::string> lines;
-  for (std::string l; std::getline(in, l);) lines.push_back(l);
-  return lines;
-}
-
 std::vector<DocExample> examplesOf(const fs::path& page, const std::string& name) {
-  const auto lines = exampleFileLines(page);
+  const auto lines = tetflow::test::readTextLines(page);
   std::vector<DocExample> out;
   auto block = [&](size_t& i, const std::string& fence, std::vector<std::string>& into) {
     if (i >= lines.size() || lines[i] != fence) return false;

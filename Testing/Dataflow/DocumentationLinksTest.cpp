@@ -14,18 +14,13 @@
 #include <string>
 #include <vector>
 
+#include "TestUtil.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
 const fs::path kDocsRoot = fs::path(TETFLOW_SOURCE_DIR);
-
-std::vector<std::string> docLines(const fs::path& p) {
-  std::ifstream in(p);
-  std::vector<std::string> lines;
-  for (std::string l; std::getline(in, l);) lines.push_back(l);
-  return lines;
-}
 
 // GitHub's heading id: lower case; letters, digits, spaces, '-' and '_' kept (the headings here
 // have no non-ASCII letters: their non-ASCII characters are symbols, which GitHub drops);
@@ -45,7 +40,7 @@ std::vector<std::pair<int, std::string>> proseLines(const fs::path& p) {
   std::vector<std::pair<int, std::string>> out;
   bool fence = false;
   int n = 0;
-  for (const auto& l : docLines(p)) {
+  for (const auto& l : tetflow::test::readTextLines(p)) {
     ++n;
     if (l.rfind("```", 0) == 0) {
       fence = !fence;
@@ -132,20 +127,18 @@ TEST(Documentation, EveryRelativeLinkAndAnchorResolves) {
 }
 
 TEST(Documentation, TheIndexListsEveryPageAndTheReadmeLinksTheIndex) {
-  std::string index;
-  for (const auto& l : docLines(kDocsRoot / "docs" / "README.md")) index += l + "\n";
+  const std::string index = tetflow::test::readText((kDocsRoot / "docs" / "README.md").string());
   for (const auto& page : documentationPages()) {
     if (page.parent_path().filename() != "docs" || page.filename() == "README.md") continue;
     EXPECT_NE(index.find("](" + page.filename().string() + ")"), std::string::npos)
         << "docs/README.md does not link " << page.filename().string();
   }
-  std::string readme;
-  for (const auto& l : docLines(kDocsRoot / "README.md")) readme += l + "\n";
+  const std::string readme = tetflow::test::readText((kDocsRoot / "README.md").string());
   EXPECT_NE(readme.find("](docs/README.md)"), std::string::npos);
 }
 
 TEST(Documentation, ReadmeIsAFewScreens) {
-  const auto lines = docLines(kDocsRoot / "README.md").size();
+  const auto lines = tetflow::test::readTextLines(kDocsRoot / "README.md").size();
   EXPECT_LE(lines, 400u) << "README.md has " << lines << " lines; the manual is docs/ (issue 51)";
   EXPECT_GT(lines, 60u);
 }
@@ -166,7 +159,7 @@ TEST(Documentation, QuotedResultsFilesExistAndNameTheirCommand) {
   int quotes = 0;
   for (const auto& page : documentationPages()) {
     int n = 0;
-    for (const auto& line : docLines(page)) {
+    for (const auto& line : tetflow::test::readTextLines(page)) {
       ++n;
       for (std::sregex_iterator it(line.begin(), line.end(), quoted), end; it != end; ++it) {
         ++quotes;
@@ -181,7 +174,7 @@ TEST(Documentation, QuotedResultsFilesExistAndNameTheirCommand) {
   for (const auto& e : fs::directory_iterator(bench / "results")) {
     if (e.path().extension() != ".txt") continue;
     ++files;
-    const auto lines = docLines(e.path());
+    const auto lines = tetflow::test::readTextLines(e.path());
     ASSERT_FALSE(lines.empty()) << e.path().string();
     std::string word;
     std::istringstream(lines.front().rfind("# ", 0) == 0 ? lines.front().substr(2) : std::string()) >> word;

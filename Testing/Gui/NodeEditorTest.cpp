@@ -62,6 +62,19 @@ class NodeEditorTest : public QObject {
     for (int i = 1; i <= 5; ++i) QTest::mouseMove(vp, a + (b - a) * i / 5);
     QTest::mouseRelease(vp, Qt::LeftButton, Qt::NoModifier, b);
   }
+  // A small sphere phantom -> regular lattice (3 mm) -> CleaveMesh, wired on the canvas.
+  void addSphereLatticeCleave(std::string& ph, std::string& bg, std::string& cm) {
+    ph = scene()->addModule("CreatePhantom", {0, 0});
+    net().setParameterText(ph, "kind", "sphere");
+    net().setParameterText(ph, "radius", "10");
+    net().setParameterText(ph, "voxel_size", "1");
+    bg = scene()->addModule("GenerateBackgroundMesh", {0, 120});
+    net().setParameterText(bg, "cell_size", "3");
+    cm = scene()->addModule("CleaveMesh", {0, 240});
+    QVERIFY(scene()->tryConnect(ph, 0, bg, 0).isEmpty());
+    QVERIFY(scene()->tryConnect(ph, 0, cm, 0).isEmpty());
+    QVERIFY(scene()->tryConnect(bg, 0, cm, 1).isEmpty());
+  }
   PortItem* out(const std::string& id, int i) { return scene()->moduleItem(id)->outputPort(i); }
   PortItem* in(const std::string& id, int i) { return scene()->moduleItem(id)->inputPort(i); }
 
@@ -344,17 +357,10 @@ private slots:
 
   void executesOffTheGuiThreadWithStatuses() {
     // Small sphere phantom -> lattice -> cleave -> quality, plus a broken branch.
-    const auto ph = scene()->addModule("CreatePhantom", {0, 0});
-    net().setParameterText(ph, "kind", "sphere");
-    net().setParameterText(ph, "radius", "10");
-    net().setParameterText(ph, "voxel_size", "1");
-    const auto bg = scene()->addModule("GenerateBackgroundMesh", {0, 120});
-    net().setParameterText(bg, "cell_size", "3");
-    const auto cm = scene()->addModule("CleaveMesh", {0, 240});
+    std::string ph, bg, cm;
+    addSphereLatticeCleave(ph, bg, cm);
+    if (QTest::currentTestFailed()) return;
     const auto q = scene()->addModule("EvaluateQuality", {0, 360});
-    QVERIFY(scene()->tryConnect(ph, 0, bg, 0).isEmpty());
-    QVERIFY(scene()->tryConnect(ph, 0, cm, 0).isEmpty());
-    QVERIFY(scene()->tryConnect(bg, 0, cm, 1).isEmpty());
     QVERIFY(scene()->tryConnect(cm, 0, q, 0).isEmpty());
     const auto bad = scene()->addModule("CleaveMesh", {300, 240}); // background not connected
     const auto badq = scene()->addModule("EvaluateQuality", {300, 360});
@@ -396,16 +402,9 @@ private slots:
   void upToHereShowsThePredictedTetCountBeforeCleaving() {
     // Execute up to the background (context menu "Execute up to here"): CleaveMesh does not run,
     // and the background's box shows the mesh size it predicts (its report's predicted_tets).
-    const auto ph = scene()->addModule("CreatePhantom", {0, 0});
-    net().setParameterText(ph, "kind", "sphere");
-    net().setParameterText(ph, "radius", "10");
-    net().setParameterText(ph, "voxel_size", "1");
-    const auto bg = scene()->addModule("GenerateBackgroundMesh", {0, 120});
-    net().setParameterText(bg, "cell_size", "3");
-    const auto cm = scene()->addModule("CleaveMesh", {0, 240});
-    QVERIFY(scene()->tryConnect(ph, 0, bg, 0).isEmpty());
-    QVERIFY(scene()->tryConnect(ph, 0, cm, 0).isEmpty());
-    QVERIFY(scene()->tryConnect(bg, 0, cm, 1).isEmpty());
+    std::string ph, bg, cm;
+    addSphereLatticeCleave(ph, bg, cm);
+    if (QTest::currentTestFailed()) return;
     emit scene()->moduleContextAction(QString::fromStdString(bg), "upto");
     QVERIFY(win_->execution()->waitForFinished(60000));
     QCOMPARE(win_->execution()->lastSummary().ran, 2);
